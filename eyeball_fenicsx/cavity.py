@@ -1,0 +1,193 @@
+"""Static liquid in a closed cavity: the seed's solid-liquid coupling.
+
+The liquid's law is p = p_ini - K (V - V_ini - dV_inj) / V_ini, with the enclosed volume
+
+    V(u) = -(1/3) integral over the wetted surface of x . n da   (n: the solid's outward normal)
+
+in the current configuration. Both p_ini and the injected volume dV_inj ramp with the load
+factor in the cavity's step, so the reference mesh is stress-free and the first step brings
+the eye to its pressure.
+
+The seed's *new algorithm* (default): p is one extra global unknown. Its equation comes with
+the solid from one potential
+
+    Pi(u, p) = Pi_solid(u) - p (V(u) - V_ini - dV_inj) - V_ini (p - p_ini)^2 / (2 K),
+
+so the Newton matrix is the symmetric bordered one [[K - p V'', -V'], [-V'^T, -V_ini/K]]: one
+sparse column and row over the wetted dofs, and it stays regular as K -> infinity (a volume
+constraint) and through a pressure maximum under volume control.
+
+The seed's *previous algorithm* (``algorithm="previous"``, for comparison only): p = p(u)
+is eliminated, and the tangent gains the dense block (K / V_ini) V' V'^T over all wetted dofs.
+"""
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dolfinx import cpp, fem
+from dolfinx.fem.petsc import assemble_vector
+
+from .errors import SceneError
+from .feature import Feature
+
+AXES = {"x": 0, "y": 1, "z": 2}
+
+
+class LiquidCavity(Feature):
+    """A closed cavity of static liquid wetting ``surface``.
+
+    Args:
+        name: the cavity's name in summary.json.
+        surface: the solid's wetted surface (surface group name).
+        bulk_modulus: K of the liquid (> 0; ``float("inf")`` makes it incompressible).
+        initial_pressure: p_ini, the pressure in the reference state.
+        injected_volume: liquid volume added in the cavity's step (negative: removed).
+        symmetry: names of the planes x=0, y=0, z=0 that close an open surface.
+        algorithm: "new" (bordered, one global unknown) or "previous" (dense tangent).
+    """
+
+    section = "cavities"
+
+    def __init__(self, name, surface, bulk_modulus, initial_pressure=0.0, injected_volume=0.0,
+                 symmetry=(), step=0, algorithm="new"):
+        for key, value in (("bulk_modulus", bulk_modulus), ("initial_pressure", initial_pressure),
+                           ("injected_volume", injected_volume)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or np.isnan(value):
+                raise SceneError(f"cavity {name!r}: {key} must be a number, got {value!r}")
+        if not bulk_modulus > 0:
+            raise SceneError(f"cavity {name!r}: bulk_modulus must be positive, got {bulk_modulus!r}")
+        if not (np.isfinite(initial_pressure) and np.isfinite(injected_volume)):
+            raise SceneError(f"cavity {name!r}: initial_pressure and injected_volume must be finite")
+        unknown = sorted(set(symmetry) - set(AXES))
+        if unknown:
+            raise SceneError(f"cavity {name!r}: symmetry planes must be among 'x', 'y', 'z', got {unknown}")
+        if algorithm not in ("new", "previous"):
+            raise SceneError(f"cavity {name!r}: algorithm must be 'new' or 'previous', got {algorithm!r}")
+        self.name, self.surface, self.step = name, surface, step
+        self.K, self.p_ini, self.dV_inj = float(bulk_modulus), float(initial_pressure), float(injected_volume)
+        self.symmetry = [AXES[s] for s in symmetry]
+        self.algorithm = algorithm
+        self.num_unknowns = 1 if algorithm == "new" else 0
+        self.adds_to_jacobian = algorithm == "previous"
+        self.factor = 0.0
+
+    def setup(self, solid):
+        self.solid = solid
+        msh = solid.mesh_data.mesh
+        tag = solid.mesh_data.surfaces.get(self.surface)
+        if tag is None:
+            raise SceneError(f"cavity {self.name!r}: surface {self.surface!r} is not a surface group of mesh "
+                             f"{solid.mesh_data.source} (its surfaces: {sorted(solid.mesh_data.surfaces)})")
+        _check_closed(solid, self.surface, self.symmetry, self.name)
+        x = solid.X + solid.u
+        volume = -ufl.inner(x, solid.current_normal_area()) / 3 * solid.ds(tag)
+        self.volume_form = fem.form(volume)
+        self.dV_form = fem.form(ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W)))
+        self.pressure = fem.Constant(msh, 0.0)
+        self._load = -self.pressure * ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W))
+        self.V_ini = self.volume()
+        if not self.V_ini > 0:
+            raise SceneError(f"cavity {self.name!r}: the volume enclosed by {self.surface!r} is {self.V_ini:.4g}, "
+                             "not positive: check the symmetry planes and that the surface faces the liquid")
+        owned = solid.num_owned
+        self.wetted = np.unique(np.concatenate([d[d < owned] for d in solid.surface_dofs(self.surface)]))
+        self.dV = fem.petsc.create_vector(self.dV_form)
+        self.unknowns = np.zeros(1)
+
+    def residual(self, solid):
+        return self._load
+
+    def set_load_factor(self, factor):
+        self.factor = factor
+
+    def volume(self):
+        return self.solid.comm.allreduce(fem.assemble_scalar(self.volume_form), op=MPI.SUM)
+
+    def law(self, V):
+        """Liquid pressure at volume V (at the current load factor)."""
+        return self.factor * self.p_ini - self.K * (V - self.V_ini - self.factor * self.dV_inj) / self.V_ini
+
+    def state_changed(self):
+        self.current_volume = self.volume()
+        if self.algorithm == "new":
+            self.pressure.value = self.unknowns[0]
+        else:
+            self.pressure.value = self.law(self.current_volume)
+
+    def unknown_residuals(self):
+        """dPi/dp = -(V - V_ini - dV_inj) - V_ini (p - p_ini) / K."""
+        p = self.unknowns[0]
+        return [(self.law(self.current_volume) - p) * self.V_ini / self.K]
+
+    def _volume_gradient(self):
+        """V' on the owned wetted dofs."""
+        with self.dV.localForm() as local:
+            local.set(0.0)
+        assemble_vector(self.dV, self.dV_form)
+        self.dV.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self.dV.array_r[self.wetted]
+
+    def border(self):
+        """(owned wetted dofs, column dR_u/dp, row dR_p/du, dR_p/dp)."""
+        gradient = -self._volume_gradient()
+        return [(self.wetted, gradient, gradient, -self.V_ini / self.K)]
+
+    def coupling(self):
+        if self.algorithm != "previous":
+            return None
+        rows = np.asarray(self._problem_globals(self.wetted))
+        cols = np.concatenate(self.solid.comm.allgather(rows))
+        return np.repeat(rows, len(cols)), np.tile(cols, len(rows))
+
+    def add_to_jacobian(self, A):
+        rows = self._problem_globals(self.wetted)
+        gradient = self._volume_gradient()
+        cols = np.concatenate(self.solid.comm.allgather(rows))
+        all_gradient = np.concatenate(self.solid.comm.allgather(gradient))
+        A.setValues(rows, cols, (self.K / self.V_ini) * np.outer(gradient, all_gradient),
+                    addv=PETSc.InsertMode.ADD_VALUES)
+
+    def _problem_globals(self, local):
+        index_map = self.solid.W.dofmap.index_map
+        return index_map.local_to_global(np.asarray(local, dtype=np.int32)).astype(PETSc.IntType)
+
+    def report(self):
+        p = self.unknowns[0] if self.algorithm == "new" else self.law(self.current_volume)
+        return {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini)}
+
+
+def _check_closed(solid, surface, symmetry, name):
+    """Every boundary edge of the wetted surface must lie on a declared symmetry plane."""
+    md = solid.mesh_data
+    msh = md.mesh
+    fdim = msh.topology.dim - 1
+    facets = md.facets(surface)
+    nodes = cpp.mesh.entities_to_geometry(msh, fdim, facets, False)
+    ids = msh.geometry.input_global_indices[nodes]
+    coords = msh.geometry.x[nodes]
+    gathered = msh.comm.gather((ids, coords), root=0)
+    message = None
+    if msh.comm.rank == 0:
+        ids = np.concatenate([g[0] for g in gathered])
+        coords = np.concatenate([g[1] for g in gathered])
+        _, first = np.unique(np.sort(ids, axis=1), axis=0, return_index=True)  # ghosts appear twice
+        ids, coords = ids[first], coords[first]
+        corners = ids.shape[1]
+        pairs = [(0, 1), (0, 2), (1, 3), (2, 3)] if corners == 4 else [(0, 1), (1, 2), (0, 2)]
+        edges = np.concatenate([np.sort(ids[:, list(p)], axis=1) for p in pairs])
+        middles = np.concatenate([coords[:, list(p)].mean(axis=1) for p in pairs])
+        _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
+        open_edges = counts[inverse.ravel()] == 1
+        scale = np.abs(coords).max()
+        on_plane = np.zeros(len(middles), dtype=bool)
+        for axis in symmetry:
+            on_plane |= np.abs(middles[:, axis]) <= 1e-8 * scale
+        bad = open_edges & ~on_plane
+        if bad.any():
+            where = np.round(middles[bad][0], 4).tolist()
+            message = (f"cavity {name!r}: surface {surface!r} is not closed: {int(bad.sum())} open edge(s), "
+                       f"e.g. near {where}; close it in the mesh or declare symmetry planes (symmetry = [...])")
+    message = msh.comm.bcast(message, root=0)
+    if message:
+        raise SceneError(message)

@@ -1,0 +1,57 @@
+"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [PETSc options]``.
+
+Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid;
+3 a step did not converge after the automatic cut-backs. Errors are one line on stderr.
+Options after the scene that argparse does not know (``-eye_snes_monitor``...) go to PETSc.
+"""
+import argparse
+import sys
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .errors import ConvergenceError, SceneError
+
+
+def _petsc_options(tokens):
+    """Put ``-key [value]`` tokens into the PETSc options database."""
+    opts = PETSc.Options()
+    i = 0
+    while i < len(tokens):
+        token = tokens[i]
+        if not token.startswith("-"):
+            raise SceneError(f"unexpected argument {token!r}: PETSc options start with '-'")
+        value = ""
+        if i + 1 < len(tokens) and not tokens[i + 1].startswith("-"):
+            value, i = tokens[i + 1], i + 1
+        opts[token.lstrip("-")] = value
+        i += 1
+
+
+def _fail(code, message):
+    if MPI.COMM_WORLD.rank == 0:
+        print(f"error: {message}", file=sys.stderr, flush=True)
+    return code
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="eyeball-fenicsx", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    run = commands.add_parser("run", help="run a scene TOML file")
+    run.add_argument("scene")
+    run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf)")
+    args, petsc = parser.parse_known_args(argv)
+    try:
+        _petsc_options(petsc)
+        from .scenefile import load_scene
+        scene = load_scene(args.scene)
+        scene.run(args.out)
+    except SceneError as error:
+        return _fail(2, error)
+    except ConvergenceError as error:
+        return _fail(3, error)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

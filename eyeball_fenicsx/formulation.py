@@ -1,0 +1,166 @@
+"""The mixed displacement-pressure formulation of incompressible hyperelasticity.
+
+Total potential of the solid (the seed's Phi, with its 2 lambda written -p):
+
+    Pi(u, p) = sum over regions  integral of  W(F) - p (J - 1)  dV
+
+for incompressible regions; the Lagrange multiplier p is the hydrostatic pressure
+(compression positive, sigma = dev part - p I). In a compressible region the pressure
+unknown is idle and pinned to zero by the term -p^2 / (2 mu).
+
+Elements: on hexahedra the seed's Q1/P0 (8-node trilinear displacement, one pressure per
+element); on tetrahedra P2/P0 (quadratic displacement, one pressure per element, which is
+inf-sup stable). Other pairs can be named for convergence studies.
+"""
+import dataclasses
+
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from dolfinx import fem
+
+from .errors import SceneError
+from .kinematics import cauchy_stress, deformation_gradient, von_mises
+
+# name -> (displacement degree, pressure family, pressure degree)
+ELEMENTS = {"Q1P0": (1, "DG", 0), "Q2P0": (2, "DG", 0), "P2P0": (2, "DG", 0), "P1P0": (1, "DG", 0)}
+DEFAULT_ELEMENT = {"hexahedron": "Q1P0", "tetrahedron": "P2P0"}
+
+
+@dataclasses.dataclass
+class MixedSolid:
+    """The solid: mesh, region materials, the mixed space W = (u, p) and its state w.
+
+    Args:
+        mesh_data: the mesh with its named regions and surfaces (``mesh.MeshData``).
+        materials: region name -> material law (every region needs one).
+        element: an ``ELEMENTS`` name; default by cell type.
+    """
+
+    mesh_data: object
+    materials: dict
+    element: str = None
+
+    def __post_init__(self):
+        md = self.mesh_data
+        msh = md.mesh
+        cell = msh.ufl_cell()
+        cells = msh.topology.index_map(msh.topology.dim)
+        if msh.comm.allreduce(cells.size_local == 0, op=MPI.LOR):
+            raise SceneError(f"mesh {md.source} has {cells.size_global} cells, too few to share among "
+                             f"{msh.comm.size} MPI ranks: use fewer ranks or a finer mesh")
+        missing = sorted(set(md.regions) - set(self.materials))
+        if missing:
+            raise SceneError(f"no material for region(s) {missing} of mesh {md.source}: add [materials.<region>]")
+        unknown = sorted(set(self.materials) - set(md.regions))
+        if unknown:
+            raise SceneError(f"materials given for {unknown}, which are not volume groups of mesh {md.source} "
+                             f"(its regions: {sorted(md.regions)})")
+        self.element = self.element or DEFAULT_ELEMENT[cell.cellname()]
+        if self.element not in ELEMENTS:
+            raise SceneError(f"unknown element {self.element!r}: choose one of {sorted(ELEMENTS)}")
+        degree, p_family, p_degree = ELEMENTS[self.element]
+        Ve = ufl.VectorElement("Lagrange", cell, degree)
+        Qe = ufl.FiniteElement(p_family, cell, p_degree)
+        self.W = fem.FunctionSpace(msh, ufl.MixedElement([Ve, Qe]))
+        self.w = fem.Function(self.W, name="state")
+        self.u, self.p = ufl.split(self.w)
+        self.v, self.q = ufl.TestFunctions(self.W)
+        self.dx = ufl.Measure("dx", domain=msh, subdomain_data=md.cell_tags, metadata={"quadrature_degree": 2 * degree})
+        self.ds = ufl.Measure("ds", domain=msh, subdomain_data=md.facet_tags, metadata={"quadrature_degree": 2 * degree})
+        self.F = deformation_gradient(self.u)
+        self.X = ufl.SpatialCoordinate(msh)
+
+    @property
+    def comm(self):
+        return self.mesh_data.mesh.comm
+
+    def potential(self):
+        """The stored energy of all regions with the incompressibility constraint."""
+        J = ufl.det(self.F)
+        terms = []
+        for region, law in self.materials.items():
+            dx = self.dx(self.mesh_data.regions[region])
+            if law.incompressible:
+                terms.append((law.strain_energy(self.F) - self.p * (J - 1)) * dx)
+            else:
+                terms.append((law.strain_energy(self.F) - self.p**2 / (2 * law.shear_modulus)) * dx)
+        return sum(terms)
+
+    def first_piola(self, law):
+        """P = dW/dF - p J F^-T (the pressure term only for incompressible laws)."""
+        F = ufl.variable(self.F)
+        P = ufl.diff(law.strain_energy(F), F)
+        if law.incompressible:
+            P = P - self.p * ufl.det(F) * ufl.inv(F).T
+        return P
+
+    def current_normal_area(self):
+        """n da = J F^-T N dA on the boundary (Nanson's formula)."""
+        N = ufl.FacetNormal(self.mesh_data.mesh)
+        return ufl.det(self.F) * ufl.inv(self.F).T * N
+
+    def surface_dofs(self, surface):
+        """Local indices in W of the displacement dofs on a named surface, per component."""
+        msh = self.mesh_data.mesh
+        facets = self.mesh_data.facets(surface)
+        return [fem.locate_dofs_topological(self.W.sub(0).sub(i), msh.topology.dim - 1, facets) for i in range(3)]
+
+    @property
+    def num_owned(self):
+        return self.W.dofmap.index_map.size_local
+
+    def cellwise(self, expression):
+        """Interpolate a UFL expression at cell midpoints into a DG0 function."""
+        msh = self.mesh_data.mesh
+        shape = expression.ufl_shape
+        element = ("DG", 0) if not shape else ufl.TensorElement("DG", msh.ufl_cell(), 0, shape=shape)
+        V = fem.FunctionSpace(msh, element)
+        f = fem.Function(V)
+        f.interpolate(fem.Expression(expression, V.element.interpolation_points()))
+        return f
+
+    def mises_expression(self):
+        """Von Mises stress of the Cauchy stress, region by region, as one UFL expression."""
+        indicator = {r: self._region_indicator(r) for r in self.materials}
+        sigma = sum(indicator[r] * cauchy_stress(self.first_piola(law), self.F) for r, law in self.materials.items())
+        return von_mises(sigma)
+
+    def _region_indicator(self, region):
+        msh = self.mesh_data.mesh
+        if not hasattr(self, "_dg0"):
+            self._dg0 = fem.FunctionSpace(msh, ("DG", 0))
+        chi = fem.Function(self._dg0)
+        chi.x.array[self.mesh_data.cells(region)] = 1.0
+        chi.x.scatter_forward()
+        return chi
+
+
+class JacobianGuard:
+    """Watches det F at element midpoints, so that an inverted element stops Newton cleanly."""
+
+    def __init__(self, solid: MixedSolid):
+        self.solid = solid
+        msh = solid.mesh_data.mesh
+        V = fem.FunctionSpace(msh, ("DG", 0))
+        self.detF = fem.Function(V)
+        self._expr = fem.Expression(ufl.det(solid.F), V.element.interpolation_points())
+        num_cells = msh.topology.index_map(msh.topology.dim).size_local
+        self._midpoints = dolfinx_midpoints(msh, num_cells)
+
+    def check(self):
+        """Return (min det F over the mesh, reference location of that element) on every rank."""
+        self.detF.interpolate(self._expr)
+        values = self.detF.x.array[: len(self._midpoints)]
+        local = (values.min(), self._midpoints[values.argmin()]) if len(values) else (np.inf, np.zeros(3))
+        comm = self.solid.comm
+        everyone = comm.allgather((float(local[0]) if np.isfinite(local[0]) else -np.inf
+                                   if np.isnan(local[0]) else np.inf, local[1]))
+        return min(everyone, key=lambda item: item[0])
+
+
+def dolfinx_midpoints(msh, num_cells):
+    """Reference coordinates of the midpoints of the first ``num_cells`` local cells."""
+    from dolfinx.mesh import compute_midpoints
+    return compute_midpoints(msh, msh.topology.dim, np.arange(num_cells, dtype=np.int32))

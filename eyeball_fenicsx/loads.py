@@ -1,0 +1,141 @@
+"""Boundary conditions: prescribed displacement, follower pressure, nodal forces."""
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from dolfinx import fem
+
+from .errors import SceneError
+from .feature import Feature
+
+AXES = {"x": 0, "y": 1, "z": 2}
+
+
+class Dirichlet(Feature):
+    """Prescribed displacement components on a surface, reached linearly over its step.
+
+    Args:
+        surface: surface group name.
+        components: {"x": value, ...}; only the listed components are constrained.
+    """
+
+    section = "reactions"
+
+    def __init__(self, surface, components, step=0):
+        if not components:
+            raise SceneError(f"dirichlet on {surface!r}: give at least one of x, y, z")
+        self.name = self.surface = surface
+        self.components = {AXES[c]: float(v) for c, v in components.items()}
+        self.step = step
+
+    def setup(self, solid):
+        self.solid = solid
+        self.dofs = solid.surface_dofs(self.surface)
+        self._bcs, self._values = [], []
+        msh = solid.mesh_data.mesh
+        facets = solid.mesh_data.facets(self.surface)
+        for i in self.components:
+            Wi = solid.W.sub(0).sub(i)
+            Vi, _ = Wi.collapse()
+            g = fem.Function(Vi)
+            dofs = fem.locate_dofs_topological((Wi, Vi), msh.topology.dim - 1, facets)
+            self._bcs.append(fem.dirichletbc(g, dofs, Wi))
+            self._values.append((i, g, dofs[1]))
+        self.active = False
+
+    def begin_step(self, step_index):
+        self.active = step_index >= self.step
+        if step_index == self.step:
+            # ramp from where the surface is now (zero in the first step) to the target
+            self._start = {}
+            for i, g, collapsed in self._values:
+                current = self.solid.w.sub(0).sub(i).collapse()
+                self._start[i] = current.x.array[collapsed].copy()
+
+    def set_load_factor(self, factor):
+        if not self.active:
+            return
+        for i, g, collapsed in self._values:
+            start = self._start[i]
+            g.x.array[collapsed] = start + factor * (self.components[i] - start)
+
+    def dirichlet_bcs(self):
+        return self._bcs if self.active else []
+
+    def reaction(self, residual_array):
+        """Total reaction force on the surface from the unconstrained residual (local array)."""
+        owned = self.solid.num_owned
+        local = [residual_array[d[d < owned]].sum() for d in self.dofs]
+        return self.solid.comm.allreduce(np.array(local), op=MPI.SUM).tolist()
+
+
+class Pressure(Feature):
+    """Follower pressure on the deformed surface, pushing along the solid's inward normal."""
+
+    def __init__(self, surface, value, step=0):
+        self.name = self.surface = surface
+        self.value = float(value)
+        self.step = step
+
+    def setup(self, solid):
+        self.pressure = fem.Constant(solid.mesh_data.mesh, 0.0)
+        solid.mesh_data.facets(self.surface)  # an unknown surface is a SceneError now
+
+    def residual(self, solid):
+        # -(external virtual work) of traction -p n da = -p J F^-T N dA
+        ds = solid.ds(solid.mesh_data.surfaces[self.surface])
+        return self.pressure * ufl.inner(solid.current_normal_area(), solid.v) * ds
+
+    def set_load_factor(self, factor):
+        self.pressure.value = factor * self.value
+
+
+class NodalForce(Feature):
+    """A total force spread in equal parts over the nodes of a surface (a dead load).
+
+    With ``point`` instead of ``surface``, the whole force acts at the mesh node nearest to
+    that reference point.
+    """
+
+    adds_to_residual = True
+
+    def __init__(self, value, surface=None, point=None, step=0):
+        self.surface, self.point = surface, point
+        self.name = surface or f"node near {point}"
+        self.force = np.asarray(value, dtype=float)
+        self.step = step
+        self.factor = 0.0
+
+    def setup(self, solid):
+        owned = solid.num_owned
+        if self.surface is not None:
+            dofs = [d[d < owned] for d in solid.surface_dofs(self.surface)]
+        else:
+            dofs = _nearest_node_dofs(solid, self.point)
+        self.dofs = dofs
+        self.num_nodes = solid.comm.allreduce(len(dofs[0]), op=MPI.SUM)
+
+    def set_load_factor(self, factor):
+        self.factor = factor
+
+    def add_to_residual(self, b):
+        for i, d in enumerate(self.dofs):  # owned dofs: local index = index in b's owned array
+            b.array[d] -= self.factor * self.force[i] / self.num_nodes
+
+
+def _nearest_node_dofs(solid, point):
+    """Owned displacement dofs (per component) of the mesh node nearest to a point."""
+    V0, collapsed_to_W = solid.W.sub(0).sub(0).collapse()
+    x = V0.tabulate_dof_coordinates()
+    owned = V0.dofmap.index_map.size_local
+    distance = np.linalg.norm(x[:owned] - np.asarray(point, dtype=float), axis=1)
+    local_best = (distance.min(), solid.comm.rank) if owned else (np.inf, solid.comm.rank)
+    _, winner = solid.comm.allreduce(local_best, op=MPI.MIN)
+    if solid.comm.rank != winner:
+        return [np.empty(0, dtype=np.int32)] * 3
+    node = int(distance.argmin())
+    dofs = []
+    for i in range(3):
+        Vi, to_W = solid.W.sub(0).sub(i).collapse()
+        dofs.append(np.array([to_W[node]], dtype=np.int32))
+    return dofs

@@ -1,0 +1,82 @@
+"""Material laws: each is a small class that gives its strain energy W(F) only.
+
+Stresses and tangents come from ``ufl.derivative`` of the energy, never by hand.
+Incompressible laws depend on the reduced invariants; J = 1 is enforced by the pressure
+Lagrange multiplier of the mixed formulation (``formulation.py``).
+"""
+import dataclasses
+import math
+
+import ufl
+
+from .errors import SceneError
+from .kinematics import green_lagrange, reduced_invariants
+
+
+def _positive(name, value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise SceneError(f"{name} must be a positive finite number, got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class MooneyRivlin:
+    """Generalized Mooney-Rivlin: W = sum c_rs (I1bar - 3)^r (I2bar - 3)^s, incompressible.
+
+    Args:
+        c: coefficients by exponent pair, ``{(1, 0): c10, (0, 1): c01, (2, 0): c20, ...}``.
+    """
+
+    c: dict
+    incompressible = True
+
+    def __post_init__(self):
+        if not self.c:
+            raise SceneError("c needs at least one coefficient, e.g. c = { \"10\" = 0.5 }")
+        for (r, s), value in self.c.items():
+            if not (isinstance(r, int) and isinstance(s, int) and r >= 0 and s >= 0 and r + s > 0):
+                raise SceneError(f"c: exponents must be non-negative integers, not both zero, got ({r}, {s})")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise SceneError(f"c{r}{s} must be a finite number, got {value!r}")
+        _positive("the initial shear modulus 2 (c10 + c01)", self.shear_modulus)
+
+    @property
+    def shear_modulus(self):
+        """Initial shear modulus mu = 2 (c10 + c01)."""
+        return 2 * (self.c.get((1, 0), 0.0) + self.c.get((0, 1), 0.0))
+
+    def strain_energy(self, F):
+        I1bar, I2bar, _ = reduced_invariants(F)
+        return sum(c * (I1bar - 3) ** r * (I2bar - 3) ** s for (r, s), c in self.c.items())
+
+
+def NeoHooke(c10):
+    """Neo-Hooke, W = c10 (I1bar - 3): the seed's law for all soft tissue."""
+    _positive("c10", c10)
+    return MooneyRivlin({(1, 0): c10})
+
+
+@dataclasses.dataclass(frozen=True)
+class LinearElastic:
+    """Compressible linear elastic law made geometrically exact (St Venant-Kirchhoff).
+
+    W = lambda/2 (tr E)^2 + mu tr(E^2), with E the Green-Lagrange strain, so that large
+    rotations of stiff fibres (Zinn's zonule) carry no spurious stress.
+    """
+
+    E: float
+    nu: float
+    incompressible = False
+
+    def __post_init__(self):
+        _positive("E", self.E)
+        if isinstance(self.nu, bool) or not isinstance(self.nu, (int, float)) or not -1 < self.nu < 0.5:
+            raise SceneError(f"nu must be a number in (-1, 0.5), got {self.nu!r}")
+
+    @property
+    def shear_modulus(self):
+        return self.E / (2 * (1 + self.nu))
+
+    def strain_energy(self, F):
+        lmbda = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+        E = green_lagrange(F)
+        return lmbda / 2 * ufl.tr(E) ** 2 + self.shear_modulus * ufl.inner(E, E)

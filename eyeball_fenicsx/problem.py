@@ -1,0 +1,220 @@
+"""The Newton system: the solid plus every feature the scene holds, on one PETSc matrix.
+
+Block order of the unknowns (written down here, and only here):
+
+    x = [ w (the mixed (u, p) dofs of the solid, DOLFINx numbering) | g_1 .. g_m ]
+
+where g_k are the global scalar unknowns of the features (one liquid pressure per
+cavity). Rank r owns its DOLFINx dofs; the last rank also owns g_1 .. g_m, so the global
+numbering of the DOLFINx dofs is unchanged and the bordered matrix
+
+    [ K     B ]   K: Jacobian of the UFL forms (+ custom contact terms)
+    [ C^T   D ]   B, C: one sparse column / row per global unknown, D: m x m
+
+is one MPIAIJ matrix that MUMPS factorizes directly (the seed's "new algorithm"). It is
+preallocated exactly from the DOLFINx sparsity pattern plus the borders, so assembly does
+no mallocs, and MUMPS reuses its symbolic analysis while the pattern stays the same.
+"""
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dolfinx import fem
+from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, set_bc
+
+from .formulation import JacobianGuard, MixedSolid
+
+
+class Problem:
+    """Residual and Jacobian of the solid and its features, as SNES callbacks."""
+
+    def __init__(self, solid: MixedSolid, features):
+        self.solid = solid
+        self.features = list(features)
+        self.comm = comm = solid.comm
+        for f in self.features:
+            f.setup(solid)
+        residual = ufl.derivative(solid.potential(), solid.w, ufl.TestFunction(solid.W))
+        for f in self.features:
+            extra = f.residual(solid)
+            if extra is not None:
+                residual = residual + extra
+        self.R_form = fem.form(residual)
+        self.J_form = fem.form(ufl.derivative(residual, solid.w, ufl.TrialFunction(solid.W)))
+        self.bordered = [f for f in self.features if f.num_unknowns]
+        self.custom = [f for f in self.features if f.adds_to_residual]
+        self.m = sum(f.num_unknowns for f in self.bordered)
+
+        index_map = solid.W.dofmap.index_map
+        self.n_owned = index_map.size_local
+        self.n_global = index_map.size_global
+        self.last = comm.size - 1
+        self.n_extra_local = self.m if comm.rank == self.last else 0
+        self.offset = index_map.local_range[0]
+        self.extra_global = self.n_global + np.arange(self.m, dtype=np.int32)
+        local_to_global = np.concatenate([index_map.local_to_global(
+            np.arange(self.n_owned + index_map.num_ghosts, dtype=np.int32)), self.extra_global]).astype(PETSc.IntType)
+        self.lgmap = PETSc.LGMap().create(local_to_global, comm=comm)
+
+        self.b_w = fem.petsc.create_vector(self.R_form)
+        self.scratch = self.b_w.duplicate()
+        self.A = self._create_matrix()
+        self.x, self.b = self.A.createVecs()
+        self.guard = JacobianGuard(solid)
+        self.bcs = []
+        self.inverted = None
+
+    # -- the matrix ----------------------------------------------------------------------
+    def _create_matrix(self):
+        n, m, comm = self.n_owned, self.m, self.comm
+        pattern = fem.create_sparsity_pattern(self.J_form)
+        pattern.assemble()
+        graph = pattern.graph
+        d_nnz = np.empty(n + self.n_extra_local, dtype=PETSc.IntType)
+        o_nnz = np.empty_like(d_nnz)
+        for row in range(n):
+            cols = graph.links(row)
+            d_nnz[row] = np.count_nonzero(cols < n)
+            o_nnz[row] = len(cols) - d_nnz[row]
+        if m:  # every row may meet each border column; border rows may be full
+            (d_nnz if comm.rank == self.last else o_nnz)[:n] += m
+            d_nnz[n:] = n + m
+            o_nnz[n:] = self.n_global - n
+        rows, cols = self._coupling()
+        d_extra = np.bincount(rows[(cols >= self.offset) & (cols < self.offset + n)] - self.offset, minlength=n)
+        d_nnz[:n] += d_extra[:n]
+        o_nnz[:n] += np.bincount(rows - self.offset, minlength=n)[:n] - d_extra[:n]
+        size = (n + self.n_extra_local, self.n_global + m)
+        A = PETSc.Mat().createAIJ((size, size), nnz=(d_nnz, o_nnz), comm=comm)
+        A.setLGMap(self.lgmap, self.lgmap)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, not self.custom_jacobian)
+        A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        return A
+
+    def _coupling(self):
+        """Distinct extra (row, col) entries of the custom features, on the rows' owners."""
+        pairs = [f.coupling() for f in self.features if f.adds_to_jacobian]
+        pairs = [np.column_stack(p).astype(np.int64) for p in pairs if p is not None]
+        pairs = np.concatenate(pairs) if pairs else np.empty((0, 2), dtype=np.int64)
+        ranges = np.array(self.comm.allgather(self.offset) + [self.n_global])
+        owner = np.searchsorted(ranges, pairs[:, 0], side="right") - 1
+        order = np.argsort(owner, kind="stable")
+        chunks = np.split(pairs[order], np.searchsorted(owner[order], np.arange(1, self.comm.size)))
+        mine = np.concatenate(self.comm.alltoall(chunks))
+        mine = np.unique(mine, axis=0) if len(mine) else mine.reshape(0, 2)
+        return mine[:, 0], mine[:, 1]
+
+    def update_pattern(self):
+        """Start of an increment: let features search; re-preallocate if their coupling changed.
+        Returns True if the matrix was created anew."""
+        changed = [f.begin_increment() for f in self.features]
+        if not self.comm.allreduce(any(changed), op=MPI.LOR):
+            return False
+        self.A.destroy()
+        self.A = self._create_matrix()
+        return True
+
+    @property
+    def custom_jacobian(self):
+        return any(f.adds_to_jacobian for f in self.features)
+
+    # -- steps ---------------------------------------------------------------------------
+    def begin_step(self, step_index):
+        for f in self.features:
+            f.begin_step(step_index)
+        self.bcs = [bc for f in self.features for bc in f.dirichlet_bcs()]
+        rows = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in self.bcs]
+        self.bc_rows = np.unique(np.concatenate(rows)) if rows else np.empty(0, dtype=np.int32)
+
+    def set_load_factor(self, factors):
+        """factors: one ramp value per feature, in the order of ``self.features``."""
+        for f, factor in zip(self.features, factors):
+            f.set_load_factor(factor)
+
+    # -- state transfer ------------------------------------------------------------------
+    def state_to_vector(self, x):
+        # x and b have no ghosts: their .array is the owned part
+        x.array[: self.n_owned] = self.solid.w.x.array[: self.n_owned]
+        x.array[self.n_owned:] = self.global_values()
+
+    def global_values(self):
+        values = np.concatenate([f.unknowns for f in self.bordered]) if self.bordered else np.empty(0)
+        return values if self.comm.rank == self.last else np.empty(0)
+
+    def vector_to_state(self, x):
+        w = self.solid.w
+        w.x.array[: self.n_owned] = x.array_r[: self.n_owned]
+        w.x.scatter_forward()
+        if self.m:
+            values = self.comm.bcast(x.array_r[self.n_owned:].copy() if self.comm.rank == self.last else None,
+                                     root=self.last)
+            start = 0
+            for f in self.bordered:
+                f.unknowns = values[start: start + f.num_unknowns]
+                start += f.num_unknowns
+        for f in self.features:
+            f.state_changed()
+
+    # -- SNES callbacks ------------------------------------------------------------------
+    def assemble_residual_unconstrained(self):
+        """The residual vector of the UFL forms, ghosts accumulated, no BC treatment."""
+        with self.b_w.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(self.b_w, self.R_form)
+        self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self.b_w
+
+    def F(self, snes, x, b):
+        self.vector_to_state(x)
+        det_min, where = self.guard.check()
+        if not det_min > 0:
+            self.inverted = (det_min, where)
+            b.set(np.inf)
+            return
+        with self.b_w.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(self.b_w, self.R_form)
+        apply_lifting(self.b_w, [self.J_form], [self.bcs], x0=[self.solid.w.vector], scale=-1.0)
+        self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        b.array[: self.n_owned] = self.b_w.array_r[: self.n_owned]
+        b.array[self.n_owned:] = self._border_residuals()
+        for f in self.custom:
+            f.add_to_residual(b)
+        b.assemble()
+        # Dirichlet rows: x - g
+        with self.scratch.localForm() as sl:
+            sl.set(0.0)
+        set_bc(self.scratch, self.bcs, self.solid.w.vector, -1.0)
+        b.array[self.bc_rows] = self.scratch.array_r[self.bc_rows]
+
+    def _border_residuals(self):
+        values = [f.unknown_residuals() for f in self.bordered]
+        if self.comm.rank != self.last or not values:
+            return np.empty(0)
+        return np.concatenate(values)
+
+    def J(self, snes, x, A, P):
+        A.zeroEntries()
+        assemble_matrix(A, self.J_form, self.bcs, diagonal=1.0)
+        index = self.n_global
+        for f in self.bordered:
+            for dofs, column, row, diagonal in f.border():
+                self._set_border(A, index, dofs, column, row, diagonal)
+                index += 1
+        for f in self.features:
+            if f.adds_to_jacobian:
+                f.add_to_jacobian(A)
+        A.assemble()
+        if self.custom_jacobian:
+            A.zeroRows(self.lgmap.apply(self.bc_rows), diag=1.0)
+
+    def _set_border(self, A, index, dofs, column, row, diagonal):
+        """Insert the border column and row of global unknown ``index`` over the owned dofs
+        ``dofs`` (local indices), and its diagonal entry."""
+        globals_ = self.lgmap.apply(np.asarray(dofs, dtype=PETSc.IntType))
+        column = np.where(np.isin(dofs, self.bc_rows), 0.0, column)  # constrained rows keep their identity
+        A.setValues(globals_, [index], column[:, None], addv=PETSc.InsertMode.ADD_VALUES)
+        A.setValues([index], globals_, np.asarray(row)[None, :], addv=PETSc.InsertMode.ADD_VALUES)
+        if self.comm.rank == self.last:
+            A.setValues([index], [index], [diagonal], addv=PETSc.InsertMode.ADD_VALUES)

@@ -1,0 +1,282 @@
+"""Scene TOML files (the format fixed in the scene contract, plus our extensions).
+
+Every problem with the file is a ``SceneError`` that says what is wrong, where (file and
+table) and how to fix it; nothing is built before the whole file has been checked.
+
+Extensions beyond the contract (documented in README.md):
+
+* ``[mesh] builder = "block" | "sphere_octant"`` with the builder's parameters, instead of
+  ``file``: the mesh is built in memory;
+* ``[[step]]`` tables (``name``, ``increments``) and a ``step = "<name>"`` key on every load,
+  cavity and contact: it ramps in that step and is held after it (default: the first step);
+* ``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``;
+* ``[[force]]`` with ``point`` instead of ``surface`` (the node nearest to the point);
+* ``[[cavity]] algorithm = "new" | "previous"``.
+"""
+import math
+import os
+import tomllib
+
+from mpi4py import MPI
+
+from .cavity import LiquidCavity
+from .errors import SceneError
+from .loads import Dirichlet, NodalForce, Pressure
+from .materials import LinearElastic, MooneyRivlin, NeoHooke
+from .mesh import load_mesh, mesh_from_gmsh_model
+from .scene import Scene, Step
+from .solver import SolverSettings
+
+TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
+             "solver", "step"}
+
+
+class _Table:
+    """A TOML table being read: typed getters that raise located SceneErrors."""
+
+    def __init__(self, data, where, allowed):
+        if not isinstance(data, dict):
+            raise SceneError(f"{where}: expected a table, got {type(data).__name__}")
+        unknown = sorted(set(data) - set(allowed))
+        if unknown:
+            raise SceneError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(allowed)}")
+        self.data, self.where = data, where
+
+    def error(self, message):
+        return SceneError(f"{self.where}: {message}")
+
+    def has(self, key):
+        return key in self.data
+
+    def get(self, key, kind, default=None, required=False):
+        if key not in self.data:
+            if required:
+                raise self.error(f"missing required key {key!r}")
+            return default
+        value = self.data[key]
+        if kind == "string":
+            if not isinstance(value, str) or not value:
+                raise self.error(f"{key} must be a non-empty string, got {value!r}")
+        elif kind in ("number", "positive", "nonnegative"):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise self.error(f"{key} must be a finite number, got {value!r}")
+            if kind == "positive" and value <= 0:
+                raise self.error(f"{key} must be positive, got {value!r}")
+            if kind == "nonnegative" and value < 0:
+                raise self.error(f"{key} must not be negative, got {value!r}")
+            value = float(value)
+        elif kind == "integer":
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise self.error(f"{key} must be a positive integer, got {value!r}")
+        elif kind == "vector":
+            if (not isinstance(value, list) or len(value) != 3
+                    or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                           for v in value)):
+                raise self.error(f"{key} must be a list of 3 finite numbers, got {value!r}")
+            value = [float(v) for v in value]
+        elif kind == "bool":
+            if not isinstance(value, bool):
+                raise self.error(f"{key} must be true or false, got {value!r}")
+        elif kind == "strings":
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise self.error(f"{key} must be a list of strings, got {value!r}")
+        return value
+
+
+def _array(data, key, path):
+    tables = data.get(key, [])
+    if not isinstance(tables, list):
+        raise SceneError(f"{path}: {key} must be an array of tables, written [[{key}]]")
+    return [(t, f"{path}: [[{key}]] #{i + 1}") for i, t in enumerate(tables)]
+
+
+def _material(table: _Table):
+    model = table.data.get("model")
+    if model == "neo-hooke":
+        _Table(table.data, table.where, {"model", "c10"})
+        return NeoHooke(table.get("c10", "positive", required=True))
+    if model == "mooney-rivlin":
+        _Table(table.data, table.where, {"model", "c"})
+        c = table.get("c", None, required=True)
+        if not isinstance(c, dict) or not c:
+            raise table.error('c must be a table of coefficients, e.g. c = { "10" = 0.4, "01" = 0.1 }')
+        coefficients = {}
+        for key, value in c.items():
+            if len(key) != 2 or not key.isdigit():
+                raise table.error(f'coefficient names are two digits "rs" for (I1bar-3)^r (I2bar-3)^s, got {key!r}')
+            coefficients[(int(key[0]), int(key[1]))] = value
+        return MooneyRivlin(coefficients)
+    if model == "linear-elastic":
+        _Table(table.data, table.where, {"model", "E", "nu"})
+        return LinearElastic(table.get("E", "positive", required=True), table.get("nu", "number", required=True))
+    raise table.error(f"unknown model {model!r}: choose neo-hooke, mooney-rivlin or linear-elastic")
+
+
+RIGID_SHAPES = {"plane": {"point", "normal"}, "sphere": {"center", "radius"},
+                "cylinder": {"point", "axis", "radius"}}
+
+
+def _contact(t: _Table, step_of):
+    """A [[contact]] table -> (feature, surfaces it names)."""
+    from .contact import ContactPair, RigidContact
+    name = t.get("name", "string", required=True)
+    slave = t.get("slave", "string", required=True)
+    penalty = t.get("penalty", "positive")
+    if t.has("master") == t.has("rigid"):
+        raise t.error("give exactly one of master (a surface) or rigid (a rigid body)")
+    if t.has("master"):
+        master = t.get("master", "string")
+        return ContactPair(name, slave, master, penalty=penalty, step=step_of(t)), [slave, master]
+    rigid = t.data["rigid"]
+    shape = rigid.get("shape") if isinstance(rigid, dict) else None
+    if shape not in RIGID_SHAPES:
+        raise t.error(f"rigid.shape must be one of {sorted(RIGID_SHAPES)}, got {shape!r}")
+    r = _Table(rigid, f"{t.where} rigid", RIGID_SHAPES[shape] | {"shape", "displacement", "inside"})
+    params = {}
+    for key in RIGID_SHAPES[shape] | {"displacement"}:
+        params[key] = r.get(key, "positive" if key == "radius" else "vector", required=key != "displacement")
+    if shape in ("sphere", "cylinder"):
+        params["inside"] = r.get("inside", "bool", False)
+    elif r.has("inside"):
+        raise r.error("inside applies to sphere and cylinder only")
+    return RigidContact(name, slave, shape, penalty=penalty, step=step_of(t), **params), [slave]
+
+
+def _mesh(table: _Table, directory, comm):
+    if table.has("file"):
+        _Table(table.data, table.where, {"file"})
+        path = os.path.join(directory, table.get("file", "string"))
+        return load_mesh(path, comm)
+    builder = table.get("builder", "string", required=False)
+    from meshes import block, sphere_octant
+    builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant}
+    if builder not in builders:
+        raise table.error(f"give file = \"<mesh>.msh\" or builder = one of {sorted(builders)}")
+    options = {k: v for k, v in table.data.items() if k != "builder"}
+    import gmsh
+    message = None
+    if comm.rank == 0:
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        try:
+            builders[builder](**options)
+        except (TypeError, ValueError) as error:
+            message = f"{table.where}: builder {builder!r}: {error}"
+    message = comm.bcast(message, root=0)
+    if message:
+        if comm.rank == 0:
+            gmsh.finalize()
+        raise SceneError(message)
+    try:
+        return mesh_from_gmsh_model(gmsh.model, comm, f"builder {builder}")
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+
+
+def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
+    """Read and check a scene TOML file, load its mesh and return the Scene."""
+    if not os.path.isfile(path):
+        raise SceneError(f"scene file {path} does not exist")
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise SceneError(f"{path}: not valid TOML: {error}") from None
+    top = _Table(data, path, TOP_LEVEL)
+    name = top.get("name", "string", default=os.path.splitext(os.path.basename(path))[0])
+
+    steps = []
+    for t, where in _array(data, "step", path):
+        t = _Table(t, where, {"name", "increments"})
+        steps.append(Step(t.get("name", "string", required=True), t.get("increments", "integer")))
+    steps = steps or [Step("load")]
+    step_index = {s.name: i for i, s in enumerate(steps)}
+    if len(step_index) != len(steps):
+        raise SceneError(f"{path}: [[step]] names must be unique, got {[s.name for s in steps]}")
+
+    def step_of(t):
+        name = t.get("step", "string", default=steps[0].name)
+        if name not in step_index:
+            raise t.error(f"step {name!r} is not a [[step]] of the scene (steps: {list(step_index)})")
+        return step_index[name]
+
+    if "materials" not in data or not isinstance(data["materials"], dict) or not data["materials"]:
+        raise SceneError(f"{path}: no [materials.<region>] table: give one per volume group of the mesh")
+    materials = {region: _material(_Table(t, f"{path}: [materials.{region}]", {"model", "c10", "c", "E", "nu"}))
+                 for region, t in data["materials"].items()}
+
+    features, surfaces_used = [], []
+    for t, where in _array(data, "dirichlet", path):
+        t = _Table(t, where, {"surface", "x", "y", "z", "step"})
+        surface = t.get("surface", "string", required=True)
+        components = {c: t.get(c, "number") for c in "xyz" if t.has(c)}
+        if not components:
+            raise t.error("constrain at least one of x, y, z")
+        features.append(Dirichlet(surface, components, step=step_of(t)))
+        surfaces_used.append((surface, where))
+    for t, where in _array(data, "pressure", path):
+        t = _Table(t, where, {"surface", "value", "step"})
+        surface = t.get("surface", "string", required=True)
+        features.append(Pressure(surface, t.get("value", "number", required=True), step=step_of(t)))
+        surfaces_used.append((surface, where))
+    for t, where in _array(data, "force", path):
+        t = _Table(t, where, {"surface", "point", "value", "step"})
+        if t.has("surface") == t.has("point"):
+            raise t.error("give exactly one of surface or point")
+        surface = t.get("surface", "string")
+        features.append(NodalForce(t.get("value", "vector", required=True), surface=surface,
+                                   point=t.get("point", "vector"), step=step_of(t)))
+        if surface:
+            surfaces_used.append((surface, where))
+    cavity_names = set()
+    for t, where in _array(data, "cavity", path):
+        t = _Table(t, where, {"name", "surface", "bulk_modulus", "initial_pressure", "injected_volume",
+                              "symmetry", "step", "algorithm"})
+        name_ = t.get("name", "string", required=True)
+        if name_ in cavity_names:
+            raise t.error(f"cavity name {name_!r} is used twice")
+        cavity_names.add(name_)
+        surface = t.get("surface", "string", required=True)
+        try:
+            features.append(LiquidCavity(
+                name_, surface, t.get("bulk_modulus", "positive", required=True),
+                t.get("initial_pressure", "number", 0.0), t.get("injected_volume", "number", 0.0),
+                t.get("symmetry", "strings", []), step=step_of(t), algorithm=t.get("algorithm", "string", "new")))
+        except SceneError as error:
+            raise t.error(str(error)) from None
+        surfaces_used.append((surface, where))
+    for t, where in _array(data, "contact", path):
+        feature, names = _contact(_Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"}), step_of)
+        features.append(feature)
+        surfaces_used.extend((n, where) for n in names)
+
+    probes = {}
+    for t, where in _array(data, "probe", path):
+        t = _Table(t, where, {"name", "point"})
+        probes[t.get("name", "string", required=True)] = t.get("point", "vector", required=True)
+
+    solver_table = _Table(data.get("solver", {}), f"{path}: [solver]",
+                          {"increments", "max_cutbacks", "growth", "predictor", "element"})
+    settings = SolverSettings(
+        increments=solver_table.get("increments", "integer", 10),
+        max_cutbacks=solver_table.get("max_cutbacks", "integer", 10),
+        growth=solver_table.get("growth", "positive", 2.0),
+        predictor=solver_table.get("predictor", "bool", True))
+    element = solver_table.get("element", "string")
+
+    mesh = data.get("mesh")
+    if not isinstance(mesh, dict) or not mesh:
+        raise SceneError(f"{path}: no [mesh] table: give file = \"<mesh>.msh\" (relative to the scene file)")
+    mesh_table = _Table(mesh, f"{path}: [mesh]", set(mesh))  # keys are checked per mesh source
+    mesh_data = _mesh(mesh_table, os.path.dirname(os.path.abspath(path)), comm)
+
+    for surface, where in surfaces_used:
+        if surface not in mesh_data.surfaces:
+            raise SceneError(f"{where}: surface {surface!r} is not a surface group of mesh {mesh_data.source} "
+                             f"(its surfaces: {sorted(mesh_data.surfaces)})")
+    for region in materials:
+        if region not in mesh_data.regions:
+            raise SceneError(f"{path}: [materials.{region}]: {region!r} is not a volume group of mesh "
+                             f"{mesh_data.source} (its regions: {sorted(mesh_data.regions)})")
+    return Scene(name, mesh_data, materials, features, probes, steps, settings, element)

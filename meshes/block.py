@@ -1,0 +1,64 @@
+"""Structured hexahedral mesh of the box [0, Lx] x [0, Ly] x [0, Lz].
+
+Usage: ``/usr/bin/python3 -m meshes.block --out block.msh --lengths 1 1 1 --divisions 4 4 4``
+"""
+import argparse
+
+import numpy as np
+
+from eyeball_fenicsx.errors import SceneError
+
+from ._discrete import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+
+# Surface physical groups by the side of the box they cover: "x0" is the face x = 0, etc.
+_SIDES = {"x0": "u-", "x1": "u+", "y0": "v-", "y1": "v+", "z0": "w-", "z1": "w+"}
+
+
+def build_block(lengths=(1.0, 1.0, 1.0), divisions=(4, 4, 4), region="solid"):
+    """Add the gmsh model "block": the box meshed with uniform 8-node hexahedra.
+
+    Call on the rank that owns gmsh, with gmsh initialized. Physical groups: the volume
+    ``region`` and the surfaces "x0", "x1", "y0", "y1", "z0", "z1" (``"x0"`` is the face x = 0).
+
+    Args:
+        lengths: edge lengths (Lx, Ly, Lz) of the box, positive.
+        divisions: number of hexahedra (nx, ny, nz) along each edge, positive integers.
+        region: name of the volume physical group.
+
+    Raises:
+        SceneError: if a length or a division count is invalid.
+    """
+    if len(lengths) != 3 or len(divisions) != 3:
+        raise SceneError(f"block: lengths and divisions need three entries each, got {lengths!r} and {divisions!r}")
+    for axis, length, count in zip("xyz", lengths, divisions):
+        check("block", f"the {axis} length", length, "positive number")
+        check("block", f"the {axis} division count", count, "positive integer")
+    axes = [np.linspace(0.0, length, n + 1) for length, n in zip(lengths, divisions)]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    hexes = hex_grid(np.arange(len(nodes)).reshape([n + 1 for n in divisions]))
+    surfaces = {name: boundary_quads(hexes, side) for name, side in _SIDES.items()}
+    add_hex_model("block", nodes, hexes.reshape(-1, 8), region, surfaces)
+
+
+def write(path, **options):
+    """Write the block as an MSH 4.1 file in a private gmsh session (serial).
+
+    Args:
+        path: the .msh file to write.
+        **options: keyword arguments of :func:`build_block`.
+    """
+    write_msh(path, build_block, **options)
+
+
+def main(argv=None):
+    """Command-line entry point: write a block mesh (on rank 0 when run under MPI)."""
+    parser = argparse.ArgumentParser(prog="python3 -m meshes.block", description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, help="the .msh file to write")
+    parser.add_argument("--lengths", type=float, nargs=3, default=(1.0, 1.0, 1.0), metavar=("LX", "LY", "LZ"))
+    parser.add_argument("--divisions", type=int, nargs=3, default=(4, 4, 4), metavar=("NX", "NY", "NZ"))
+    parser.add_argument("--region", default="solid", help="name of the volume physical group")
+    run_cli(parser, build_block, argv)
+
+
+if __name__ == "__main__":
+    main()
