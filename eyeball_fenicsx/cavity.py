@@ -163,8 +163,9 @@ def _check_closed(solid, surface, symmetry, name):
     msh = md.mesh
     fdim = msh.topology.dim - 1
     facets = md.facets(surface)
-    nodes = cpp.mesh.entities_to_geometry(msh, fdim, facets, False)
-    ids = msh.geometry.input_global_indices[nodes]
+    msh.topology.create_connectivity(fdim, msh.topology.dim)
+    nodes = cpp.mesh.entities_to_geometry(msh._mesh, fdim, facets, False)
+    ids = np.asarray(msh.geometry.input_global_indices)[nodes]
     coords = msh.geometry.x[nodes]
     gathered = msh.comm.gather((ids, coords), root=0)
     message = None

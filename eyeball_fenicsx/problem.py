@@ -197,6 +197,7 @@ class Problem:
     def J(self, snes, x, A, P):
         A.zeroEntries()
         assemble_matrix(A, self.J_form, self.bcs, diagonal=1.0)
+        A.assemble(PETSc.Mat.AssemblyType.FLUSH)  # the BC diagonal was inserted, the rest adds
         index = self.n_global
         for f in self.bordered:
             for dofs, column, row, diagonal in f.border():

@@ -34,7 +34,8 @@ class SolverSettings:
 
     Args:
         increments: initial number of equal load increments of a step.
-        max_cutbacks: how many times an increment may be halved before giving up.
+        max_cutbacks: the smallest increment is the initial one halved this many times;
+            an increment that fails at that size ends the run.
         growth: factor by which the increment grows after an easy one.
         easy_iterations: an increment that took at most this many Newton iterations is easy.
         predictor: extrapolate the previous increment to start Newton (secant predictor).
@@ -113,7 +114,7 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
     problem.state_to_vector(x)
     x_old, x_prev = x.duplicate(), None
     t, dt, dt_prev = 0.0, 1.0 / increments, None
-    cutbacks, done = 0, []
+    smallest, done = 1.0 / increments / 2**settings.max_cutbacks, []
     use_predictor = settings.predictor
     while t < 1.0 - 1e-12:
         dt = min(dt, 1.0 - t)
@@ -134,21 +135,19 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
             x_old.copy(x_prev)
             dt_prev = dt
             use_predictor = settings.predictor
-            cutbacks = 0
             if its <= settings.easy_iterations:
                 dt *= settings.growth
             continue
-        cutbacks += 1
         x_old.copy(x)
         problem.vector_to_state(x)
         where = ""
         if problem.inverted is not None:
             where = f"; an element inverted (det F = {problem.inverted[0]:.3g}) near {np.round(problem.inverted[1], 4).tolist()}"
         log(f"step {step_name}: load factor {t + dt:.4f} failed ({reason}{where}); cutting the increment back")
-        if cutbacks > settings.max_cutbacks:
+        if dt <= smallest * (1 + 1e-9):
             error = ConvergenceError(
-                f"step {step_name!r} did not converge beyond load factor {t:.4g} after {settings.max_cutbacks} "
-                f"successive cut-backs (last try: {reason}{where}); use more increments, check the loads and supports, or "
+                f"step {step_name!r} did not converge beyond load factor {t:.4g}, even with the increment "
+                f"cut back {settings.max_cutbacks} times (last try: {reason}{where}); use more increments, check the loads and supports, or "
                 f"pass -{PREFIX}snes_monitor to see the Newton iterations")
             error.increments = done
             raise error

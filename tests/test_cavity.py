@@ -1,0 +1,107 @@
+"""Liquid cavities (the seed's solid-liquid coupling) against the closed form of a
+liquid-filled thick sphere.
+
+A thick incompressible sphere (radii A < B) filled with a liquid of bulk modulus K, initial
+pressure p_ini and injected volume dV is in equilibrium at the inner stretch lam where the
+pressure the wall carries (Ogden 1984, eq. 5.2.38, ``analytic.sphere_pressure``) equals the
+liquid's, p = p_ini - K (V - V_ini - dV) / V_ini with V = lam^3 V_ini.
+"""
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import eyeball_fenicsx as ef
+from eyeball_fenicsx.analytic import sphere_pressure
+from eyeball_fenicsx.cavity import LiquidCavity
+
+A, B = 1.0, 2.0
+SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
+
+
+def filled_sphere(mesh, c, K, p_ini, injected_fraction, algorithm="new", increments=2):
+    """Run the octant with its liquid; return (final step entry, cavity)."""
+    cavity = LiquidCavity("liquid", "inner", K, p_ini, 0.0, symmetry=["x", "y", "z"], algorithm=algorithm)
+    scene = ef.Scene("filled-sphere", mesh, {"wall": ef.MooneyRivlin(c)}, features=SYMMETRY + [cavity],
+                     probes={"inner": [A, 0.0, 0.0]}, solver=ef.SolverSettings(increments=increments))
+    scene.build()
+    cavity.dV_inj = injected_fraction * cavity.V_ini  # a fraction of the discrete initial volume
+    return scene.run()["steps"][-1], cavity
+
+
+def equilibrium_stretch(c, K, p_ini, injected_fraction, A=A, B=B):
+    return brentq(lambda lam: sphere_pressure(lam, c, A, B) - (p_ini - K * (lam**3 - 1 - injected_fraction)),
+                  0.5, 2.5, xtol=1e-14)
+
+
+MOONEY_RIVLIN = {(1, 0): 0.4, (0, 1): 0.1, (2, 0): 0.05}
+
+
+@pytest.mark.parametrize("c, K, p_ini, injected", [
+    ({(1, 0): 0.5}, 10.0, 0.1, 0.5),            # soft liquid, neo-Hooke wall, injection
+    (MOONEY_RIVLIN, 10.0, 0.1, -0.1),           # Mooney-Rivlin wall, liquid removed
+    ({(1, 0): 0.0008}, 2083.3, 0.002, 0.05),    # the seed's vitreous (K = 2083.3 MPa) in a retina-soft wall
+    ({(1, 0): 0.0008}, 2083.3, 0.002, -0.02),   # ... and a paracentesis
+], ids=["soft-liquid", "mooney-rivlin-removal", "stiff-liquid", "stiff-liquid-removal"])
+def test_filled_sphere_against_closed_form(sphere_mesh, c, K, p_ini, injected):
+    final, cavity = filled_sphere(sphere_mesh(n=6, layers=3), c, K, p_ini, injected)
+    lam = equilibrium_stretch(c, K, p_ini, injected)
+    p_exact = sphere_pressure(lam, c, A, B)
+    result = final["cavities"]["liquid"]
+    lam_fe = 1 + final["probes"]["inner"][0]
+    # the inner stretch to the discretization error of this coarse mesh (Q1/P0, 216 cells)
+    assert lam_fe - 1 == pytest.approx(lam - 1, rel=0.01)
+    # the pressure to the discretization error, which is ~2.5% here (it falls as h^2)
+    assert result["pressure"] == pytest.approx(p_exact, rel=0.03)
+    # the liquid's law holds exactly at the solution: the volume change is what the
+    # liquid's compressibility allows for the pressure reached
+    V, V_ini = result["volume"], result["initial_volume"]
+    assert V - V_ini * (1 + injected) == pytest.approx(-(result["pressure"] - p_ini) * V_ini / K,
+                                                     rel=1e-6, abs=1e-12 * V_ini)
+
+
+def test_new_and_previous_algorithms_agree(sphere_mesh):
+    """The bordered system (one global pressure unknown) and the dense tangent of the
+    seed's previous algorithm solve the same equations."""
+    mesh = sphere_mesh(n=4, layers=2)
+    new, _ = filled_sphere(mesh, MOONEY_RIVLIN, 10.0, 0.05, 0.3, algorithm="new")
+    previous, _ = filled_sphere(mesh, MOONEY_RIVLIN, 10.0, 0.05, 0.3, algorithm="previous")
+    assert new["cavities"]["liquid"]["pressure"] == pytest.approx(previous["cavities"]["liquid"]["pressure"], rel=1e-9)
+    assert new["probes"]["inner"] == pytest.approx(previous["probes"]["inner"], rel=1e-9, abs=1e-14)
+
+
+def test_volume_control_passes_the_pressure_maximum(sphere_mesh):
+    """A thin neo-Hookean sphere (B/A = 1.1) has a pressure maximum near lam = 1.4
+    (analytic.sphere_pressure); injecting liquid carries it to lam = 1.8 on the falling
+    branch, where the pressure matches the closed form."""
+    c = {(1, 0): 0.5}
+    lam_target = 1.8
+    mesh = sphere_mesh(n=6, layers=2, outer_radius=1.1)
+    final, _ = filled_sphere(mesh, c, 1e3, 0.0, lam_target**3 - 1, increments=4)
+    lam_fe = 1 + final["probes"]["inner"][0]
+    lams = np.linspace(1.05, 2.0, 200)
+    lam_peak = lams[np.argmax([sphere_pressure(lam, c, A, 1.1) for lam in lams])]
+    assert lam_peak < 1.5 < lam_fe
+    assert lam_fe == pytest.approx(lam_target, rel=2e-3)  # the liquid is nearly incompressible
+    assert final["cavities"]["liquid"]["pressure"] == pytest.approx(sphere_pressure(lam_fe, c, A, 1.1), rel=0.01)
+
+
+def test_pressure_control_past_the_maximum_stops_cleanly(sphere_mesh):
+    """Pressure control of the same thin sphere at 1.2 x its maximum pressure must stop with
+    a ConvergenceError close to the limit load, keeping the converged increments."""
+    c = {(1, 0): 0.5}
+    p_max = max(sphere_pressure(lam, c, A, 1.1) for lam in np.linspace(1.05, 2.0, 400))
+    scene = ef.Scene("limit", sphere_mesh(n=6, layers=2, outer_radius=1.1), {"wall": ef.MooneyRivlin(c)},
+                     features=SYMMETRY + [ef.Pressure("inner", 1.2 * p_max)], probes={"inner": [A, 0.0, 0.0]},
+                     solver=ef.SolverSettings(increments=4, max_cutbacks=5))
+    with pytest.raises(ef.ConvergenceError, match="did not converge") as failure:
+        scene.run()
+    reached = failure.value.increments[-1].load_factor * 1.2 * p_max
+    assert 0.9 * p_max < reached < 1.01 * p_max
+
+
+def test_open_surface_is_rejected(sphere_mesh):
+    """Without its symmetry planes the octant's inner surface does not enclose a volume."""
+    cavity = LiquidCavity("liquid", "inner", 10.0, symmetry=["x", "y"])
+    scene = ef.Scene("open", sphere_mesh(n=2, layers=1), {"wall": ef.NeoHooke(0.5)}, features=SYMMETRY + [cavity])
+    with pytest.raises(ef.SceneError, match=r"not closed: \d+ open edge\(s\), e\.g\. near \[.*, 0\.0\]"):
+        scene.build()
