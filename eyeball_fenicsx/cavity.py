@@ -71,6 +71,7 @@ class LiquidCavity(Feature):
         self.num_unknowns = 1 if algorithm == "new" else 0
         self.adds_to_jacobian = algorithm == "previous"
         self.factor = 0.0
+        self.injections = []
 
     def setup(self, solid):
         self.solid = solid
@@ -104,9 +105,14 @@ class LiquidCavity(Feature):
     def volume(self):
         return self.solid.comm.allreduce(fem.assemble_scalar(self.volume_form), op=MPI.SUM)
 
+    def injected(self):
+        """Liquid volume added so far: this cavity's own, ramped in its step, and any
+        later ``Injection``."""
+        return self.factor * self.dV_inj + sum(i.factor * i.volume for i in self.injections)
+
     def law(self, V):
         """Liquid pressure at volume V (at the current load factor)."""
-        return self.factor * self.p_ini - self.K * (V - self.V_ini - self.factor * self.dV_inj) / self.V_ini
+        return self.factor * self.p_ini - self.K * (V - self.V_ini - self.injected()) / self.V_ini
 
     def state_changed(self):
         self.current_volume = self.volume()
@@ -154,7 +160,23 @@ class LiquidCavity(Feature):
 
     def report(self):
         p = self.unknowns[0] if self.algorithm == "new" else self.law(self.current_volume)
-        return {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini)}
+        return {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini),
+                "injected_volume": float(self.injected())}
+
+
+class Injection(Feature):
+    """Liquid added to (negative: removed from) a cavity in a step of its own: a
+    paracentesis, or volume-controlled inflation in stages."""
+
+    def __init__(self, cavity: LiquidCavity, volume, step):
+        if isinstance(volume, bool) or not isinstance(volume, (int, float)) or not np.isfinite(volume):
+            raise SceneError(f"injection into {cavity.name!r}: volume must be a finite number, got {volume!r}")
+        self.name = f"{cavity.name} injection {len(cavity.injections) + 1}"
+        self.volume, self.step, self.factor = float(volume), step, 0.0
+        cavity.injections.append(self)
+
+    def set_load_factor(self, factor):
+        self.factor = factor
 
 
 def _check_closed(solid, surface, symmetry, name):
