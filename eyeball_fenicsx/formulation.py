@@ -17,6 +17,7 @@ import dataclasses
 import numpy as np
 import ufl
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from dolfinx import fem
 
@@ -83,7 +84,7 @@ class MixedSolid:
         for region, law in self.materials.items():
             dx = self.dx(self.mesh_data.regions[region])
             if law.incompressible:
-                terms.append((law.strain_energy(self.F) - self.p * (J - 1)) * dx)
+                terms.append((law.strain_energy(self.F) - self.p * (J - law.volume_ratio)) * dx)
             else:
                 terms.append((law.strain_energy(self.F) - self.p**2 / (2 * law.shear_modulus)) * dx)
         return sum(terms)
@@ -135,6 +136,45 @@ class MixedSolid:
         chi.x.array[self.mesh_data.cells(region)] = 1.0
         chi.x.scatter_forward()
         return chi
+
+
+class MaterialNode:
+    """The mesh node nearest to a reference point (on a surface, if given): its global
+    displacement dofs and its current position, known on every rank."""
+
+    def __init__(self, solid, point, surface=None):
+        self.solid = solid
+        W = solid.W
+        owned = solid.num_owned
+        # collapse() is collective: every rank maps all three components
+        collapsed = [W.sub(0).sub(i).collapse() for i in range(3)]
+        V0, to_W = collapsed[0]
+        x = V0.tabulate_dof_coordinates()
+        candidates = np.arange(V0.dofmap.index_map.size_local)
+        if surface is not None:
+            on_surface = solid.surface_dofs(surface)[0]
+            candidates = np.flatnonzero(np.isin(np.asarray(to_W)[candidates], on_surface))
+        distance = np.linalg.norm(x[candidates] - np.asarray(point, dtype=float), axis=1)
+        best = (distance.min(), solid.comm.rank) if len(candidates) else (np.inf, solid.comm.rank)
+        self.distance, self.owner = solid.comm.allreduce(best, op=MPI.MIN)
+        if not np.isfinite(self.distance):
+            raise SceneError(f"no mesh node on surface {surface!r} near {list(point)}")
+        local = None
+        if solid.comm.rank == self.owner:
+            node = candidates[int(distance.argmin())]
+            local = np.array([collapsed[i][1][node] for i in range(3)], dtype=np.int32)
+            assert (local < owned).all()
+        self.local = local
+        data = None
+        if local is not None:
+            data = (W.dofmap.index_map.local_to_global(local), x[node])
+        self.dofs, self.reference = solid.comm.bcast(data, root=self.owner)
+        self.dofs = np.asarray(self.dofs, dtype=PETSc.IntType)
+
+    def position(self):
+        """Current position (collective)."""
+        u = self.solid.w.x.array[self.local] if self.local is not None else None
+        return self.reference + self.solid.comm.bcast(u, root=self.owner)
 
 
 class JacobianGuard:

@@ -7,6 +7,7 @@ from dolfinx import fem
 
 from .errors import SceneError
 from .feature import Feature
+from .formulation import MaterialNode
 
 AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -63,9 +64,10 @@ class Dirichlet(Feature):
         return self._bcs if self.active else []
 
     def reaction(self, residual_array):
-        """Total reaction force on the surface from the unconstrained residual (local array)."""
+        """Total reaction force on the surface from the unconstrained residual (local array):
+        only the constrained components (a sliding support carries no tangential force)."""
         owned = self.solid.num_owned
-        local = [residual_array[d[d < owned]].sum() for d in self.dofs]
+        local = [residual_array[d[d < owned]].sum() if i in self.components else 0.0 for i, d in enumerate(self.dofs)]
         return self.solid.comm.allreduce(np.array(local), op=MPI.SUM).tolist()
 
 
@@ -111,7 +113,8 @@ class NodalForce(Feature):
         if self.surface is not None:
             dofs = [d[d < owned] for d in solid.surface_dofs(self.surface)]
         else:
-            dofs = _nearest_node_dofs(solid, self.point)
+            node = MaterialNode(solid, self.point)
+            dofs = [np.array([d]) for d in node.local] if node.local is not None else [np.empty(0, np.int32)] * 3
         self.dofs = dofs
         self.num_nodes = solid.comm.allreduce(len(dofs[0]), op=MPI.SUM)
 
@@ -122,20 +125,3 @@ class NodalForce(Feature):
         for i, d in enumerate(self.dofs):  # owned dofs: local index = index in b's owned array
             b.array[d] -= self.factor * self.force[i] / self.num_nodes
 
-
-def _nearest_node_dofs(solid, point):
-    """Owned displacement dofs (per component) of the mesh node nearest to a point."""
-    V0, collapsed_to_W = solid.W.sub(0).sub(0).collapse()
-    x = V0.tabulate_dof_coordinates()
-    owned = V0.dofmap.index_map.size_local
-    distance = np.linalg.norm(x[:owned] - np.asarray(point, dtype=float), axis=1)
-    local_best = (distance.min(), solid.comm.rank) if owned else (np.inf, solid.comm.rank)
-    _, winner = solid.comm.allreduce(local_best, op=MPI.MIN)
-    if solid.comm.rank != winner:
-        return [np.empty(0, dtype=np.int32)] * 3
-    node = int(distance.argmin())
-    dofs = []
-    for i in range(3):
-        Vi, to_W = solid.W.sub(0).sub(i).collapse()
-        dofs.append(np.array([to_W[node]], dtype=np.int32))
-    return dofs

@@ -28,6 +28,7 @@ class MooneyRivlin:
 
     c: dict
     incompressible = True
+    volume_ratio = 1.0  # det of the rest-state change; J = volume_ratio is enforced
 
     def __post_init__(self):
         if not self.c:
@@ -66,6 +67,7 @@ class LinearElastic:
     E: float
     nu: float
     incompressible = False
+    volume_ratio = 1.0
 
     def __post_init__(self):
         _positive("E", self.E)
@@ -80,3 +82,31 @@ class LinearElastic:
         lmbda = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
         E = green_lagrange(F)
         return lmbda / 2 * ufl.tr(E) ** 2 + self.shear_modulus * ufl.inner(E, E)
+
+
+@dataclasses.dataclass(frozen=True)
+class Prestretched:
+    """A law whose rest state is changed by a prescribed deformation F_g (growth, shrink).
+
+    W(F) = det(F_g) W_law(F F_g^-1): the energy of the elastic part of F per reference
+    volume; an incompressible law then enforces J = det(F_g). A band whose rest length is
+    shortened (``buckle.BandTightening``) is the use here.
+    """
+
+    law: object
+    F_g: object  # UFL tensor, may hold Constants that ramp
+
+    @property
+    def incompressible(self):
+        return self.law.incompressible
+
+    @property
+    def shear_modulus(self):
+        return self.law.shear_modulus
+
+    @property
+    def volume_ratio(self):
+        return ufl.det(self.F_g)
+
+    def strain_energy(self, F):
+        return ufl.det(self.F_g) * self.law.strain_energy(F * ufl.inv(self.F_g))

@@ -1,0 +1,75 @@
+"""The encircling band, tightened by the surgeon.
+
+The surgeon shortens the band by a length Delta (the circumference reduction, in mm). We
+give the band's region a rest state shortened along its circumference: the prescribed
+deformation F_g = I + (lambda - 1) e_theta e_theta, lambda = 1 - Delta / C with C the
+band's mean circumference, about an axis (the optic axis). Free, the band would shrink to
+C - Delta; on the eye it squeezes the sclera through contact, and its tension follows.
+"""
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from dolfinx import fem
+
+from .errors import SceneError
+from .feature import Feature
+from .materials import Prestretched
+
+
+class BandTightening(Feature):
+    """Shorten the rest length of a band region by ``reduction`` around an axis.
+
+    Args:
+        region: the band's volume group.
+        reduction: circumference reduction (same length unit as the mesh), ramped.
+        axis: direction of the axis through ``center`` (default: z through the origin).
+    """
+
+    section = "bands"
+
+    def __init__(self, region, reduction, center=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0), step=0):
+        if isinstance(reduction, bool) or not isinstance(reduction, (int, float)) or not np.isfinite(reduction):
+            raise SceneError(f"band {region!r}: reduction must be a finite number, got {reduction!r}")
+        self.name = self.region = region
+        self.reduction, self.step = float(reduction), step
+        self.center = np.asarray(center, dtype=float)
+        self.axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+
+    def setup(self, solid):
+        if self.region not in solid.materials:
+            raise SceneError(f"band {self.region!r} is not a region of mesh {solid.mesh_data.source} "
+                             f"(its regions: {sorted(solid.materials)})")
+        msh = solid.mesh_data.mesh
+        dx = solid.dx(solid.mesh_data.regions[self.region])
+        axis = ufl.as_vector(self.axis)
+        relative = solid.X - ufl.as_vector(self.center)
+        radial = relative - ufl.dot(relative, axis) * axis
+        radius = ufl.sqrt(ufl.dot(radial, radial))
+        e_theta = ufl.cross(axis, radial) / radius
+        volume = msh.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * dx)), op=MPI.SUM)
+        mean_radius = msh.comm.allreduce(fem.assemble_scalar(fem.form(radius * dx)), op=MPI.SUM) / volume
+        self.circumference = 2 * np.pi * mean_radius
+        if not self.reduction < self.circumference:
+            raise SceneError(f"band {self.region!r}: reduction {self.reduction} is not less than its "
+                             f"circumference {self.circumference:.4g}")
+        self.stretch = fem.Constant(msh, 1.0)
+        F_g = ufl.Identity(3) + (self.stretch - 1) * ufl.outer(e_theta, e_theta)
+        solid.materials[self.region] = Prestretched(solid.materials[self.region], F_g)
+        # current mean circumference and the band tension (1/2pi) integral of sigma_tt / r dv
+        x = solid.X + solid.u
+        current = x - ufl.as_vector(self.center)
+        current_radial = current - ufl.dot(current, axis) * axis
+        current_radius = ufl.sqrt(ufl.dot(current_radial, current_radial))
+        self._radius_form = fem.form(current_radius * dx)
+        self._volume = volume
+        self._solid = solid
+
+    def set_load_factor(self, factor):
+        self.stretch.value = 1 - factor * self.reduction / self.circumference
+
+    def report(self):
+        comm = self._solid.comm
+        mean_radius = comm.allreduce(fem.assemble_scalar(self._radius_form), op=MPI.SUM) / self._volume
+        return {"reduction": self.reduction, "rest_stretch": float(self.stretch.value),
+                "circumference": 2 * np.pi * mean_radius, "initial_circumference": self.circumference}

@@ -1,0 +1,112 @@
+"""Sutures: strings that tie two material points and pull them together.
+
+As in the seed, a suture applies equal and opposite nodal forces along the *current*
+string direction e = (x_b - x_a) / l at its two end nodes. It derives from a potential:
+
+* tension-driven: Pi = T l, the force T e on node a (toward b), -T e on node b;
+* shortening-driven: a stiff string whose rest length is shortened by s,
+  Pi = k/2 <l - (l_0 - s)>^2 (slack strings carry nothing), T = k <l - l_0 + s>.
+
+Its consistent tangent on the two nodes is +-[dT/dl e e^T + T/l (I - e e^T)]. The second
+end may instead be a fixed point in space (``anchored=True``): the surgeon's hand.
+
+Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E about
+5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
+"""
+import numpy as np
+from petsc4py import PETSc
+
+from .errors import SceneError
+from .feature import Feature
+from .formulation import MaterialNode
+
+SUTURE_EA = 40.0  # N, 5-0 polyester (see the module docstring)
+
+
+class Suture(Feature):
+    """A string from a point ``first`` to a point ``second`` (reference coordinates).
+
+    Args:
+        tension: prescribed string tension (ramped in the suture's step), or
+        shortening: prescribed shortening of the string's rest length (ramped).
+        stiffness: k of the string for shortening (default: SUTURE_EA / initial length).
+        first_surface, second_surface: surfaces to pick the nodes from.
+        anchored: the second end is a fixed point in space, not a node.
+    """
+
+    section = "sutures"
+    adds_to_residual = True
+    adds_to_jacobian = True
+
+    def __init__(self, name, first, second, tension=None, shortening=None, stiffness=None,
+                 first_surface=None, second_surface=None, anchored=False, step=0):
+        if (tension is None) == (shortening is None):
+            raise SceneError(f"suture {name!r}: give exactly one of tension or shortening")
+        for key, value in (("tension", tension), ("shortening", shortening), ("stiffness", stiffness)):
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                      or not np.isfinite(value) or value < 0):
+                raise SceneError(f"suture {name!r}: {key} must be a non-negative number, got {value!r}")
+        self.name, self.step = name, step
+        self.first_point, self.second_point = np.asarray(first, float), np.asarray(second, float)
+        self.tension, self.shortening, self.stiffness = tension, shortening, stiffness
+        self.surfaces, self.anchored = (first_surface, second_surface), anchored
+        self.factor = 0.0
+
+    def setup(self, solid):
+        self.a = MaterialNode(solid, self.first_point, self.surfaces[0])
+        self.b = None if self.anchored else MaterialNode(solid, self.second_point, self.surfaces[1])
+        self.comm = solid.comm
+        self.initial_length = np.linalg.norm(self._ends()[1] - self._ends()[0])
+        if self.initial_length == 0:
+            raise SceneError(f"suture {self.name!r}: its two ends are the same node")
+        if self.shortening is not None and self.stiffness is None:
+            self.stiffness = SUTURE_EA / self.initial_length
+
+    def _ends(self):
+        return self.a.position(), (self.second_point if self.anchored else self.b.position())
+
+    def set_load_factor(self, factor):
+        self.factor = factor
+
+    def state_changed(self):
+        xa, xb = self._ends()
+        self.length = np.linalg.norm(xb - xa)
+        self.direction = (xb - xa) / self.length
+        if self.tension is not None:
+            self.force, self.slope = self.factor * self.tension, 0.0
+        else:
+            stretch = self.length - (self.initial_length - self.factor * self.shortening)
+            self.force, self.slope = (self.stiffness * stretch, self.stiffness) if stretch > 0 else (0.0, 0.0)
+
+    def _block(self):
+        e = self.direction
+        return self.slope * np.outer(e, e) + self.force / self.length * (np.eye(3) - np.outer(e, e))
+
+    def add_to_residual(self, b):
+        if self.comm.rank != self.a.owner:  # one rank adds, PETSc sends rows to their owners
+            return
+        f = self.force * self.direction
+        b.setValues(self.a.dofs, -f, addv=PETSc.InsertMode.ADD_VALUES)
+        if self.b is not None:
+            b.setValues(self.b.dofs, f, addv=PETSc.InsertMode.ADD_VALUES)
+
+    def add_to_jacobian(self, A):
+        if self.comm.rank != self.a.owner:
+            return
+        K = self._block()
+        A.setValues(self.a.dofs, self.a.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
+        if self.b is not None:
+            A.setValues(self.b.dofs, self.b.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
+            A.setValues(self.a.dofs, self.b.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
+            A.setValues(self.b.dofs, self.a.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
+
+    def coupling(self):
+        if self.comm.rank != self.a.owner:
+            return None
+        ends = [self.a.dofs] if self.b is None else [self.a.dofs, self.b.dofs]
+        dofs = np.concatenate(ends)
+        return np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs))
+
+    def report(self):
+        return {"tension": float(self.force), "length": float(self.length),
+                "initial_length": float(self.initial_length)}

@@ -1,0 +1,86 @@
+"""Sutures and band tightening against closed forms."""
+import numpy as np
+import pytest
+from mpi4py import MPI
+from scipy.optimize import brentq
+
+import eyeball_fenicsx as ef
+from eyeball_fenicsx.analytic import uniaxial_nominal_stress
+from eyeball_fenicsx.buckle import BandTightening
+from eyeball_fenicsx.mesh import built_mesh
+from eyeball_fenicsx.sutures import Suture
+from meshes.band import build_band
+
+C = {(1, 0): 0.4, (0, 1): 0.1}
+CORNERS = [[1.0, y, z] for y in (0.0, 1.0) for z in (0.0, 1.0)]
+SYMMETRY = [ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}), ef.Dirichlet("z0", {"z": 0.0})]
+
+
+def pulled_block(block_mesh, sutures):
+    scene = ef.Scene("sutured", block_mesh((2, 1, 1)), {"solid": ef.MooneyRivlin(C)}, features=SYMMETRY + sutures,
+                     probes={"corner": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
+    return scene, scene.run()["steps"][-1]
+
+
+def test_sutures_with_tension_give_the_uniaxial_stress(block_mesh):
+    """Four sutures pulling the corners of the unit face x = 1 toward far anchors along +x
+    load it with 4 T; the face of one element carries the uniaxial nominal stress
+    (analytic.uniaxial_nominal_stress, Ogden 1984)."""
+    T = 0.05
+    sutures = [Suture(f"s{i}", corner, [1e6, corner[1], corner[2]], tension=T, anchored=True)
+               for i, corner in enumerate(CORNERS)]
+    _, final = pulled_block(block_mesh, sutures)
+    stretch = 1 + final["probes"]["corner"][0]
+    assert uniaxial_nominal_stress(stretch, C) == pytest.approx(4 * T, rel=1e-6)
+    assert final["sutures"]["s0"]["tension"] == pytest.approx(T)
+    assert final["reactions"]["x0"][0] == pytest.approx(-4 * T, rel=1e-6)  # in balance with the sutures
+
+
+def test_shortened_sutures_balance_the_block(block_mesh):
+    """Strings from each corner to anchors a distance L further along x, shortened by s:
+    the tension k (s - u) of each of the four strings (k = EA / L, sutures.SUTURE_EA = 40)
+    carries the uniaxial stress at the stretch 1 + u; solve that scalar equation for u. The
+    anchors sit on the lines the corners end on (lateral stretch (1 + u)^-1/2) and far
+    away, so the strings end axial and their lengths differ from L by < 1e-5 L."""
+    L, s = 1000.0, 7.0
+    k = 40.0 / L
+    u = brentq(lambda u: 4 * k * (s - u) - uniaxial_nominal_stress(1 + u, C), 0.0, s)
+    lateral = (1 + u) ** -0.5
+    sutures = [Suture(f"s{i}", corner, [1.0 + L, corner[1] * lateral, corner[2] * lateral], shortening=s,
+                      anchored=True) for i, corner in enumerate(CORNERS)]
+    scene, final = pulled_block(block_mesh, sutures)
+    assert final["probes"]["corner"][0] == pytest.approx(u, rel=1e-5)
+    assert final["sutures"]["s0"]["tension"] == pytest.approx(k * (s - u), rel=1e-5)
+    # the consistent tangent: Newton converges quadratically
+    norms = scene.newton.residual_norms
+    assert norms[-1] < 1e-9 * norms[0] and len(norms) <= 6
+
+
+def test_suture_between_two_nodes_is_in_balance(block_mesh):
+    """A suture tying two nodes of a block, neither on a support, pulls them together with
+    equal and opposite forces: the supports carry nothing."""
+    suture = Suture("tie", [1.0, 1.0, 1.0], [1.0, 0.25, 1.0], tension=0.02)
+    scene = ef.Scene("tie", block_mesh((2, 4, 2)), {"solid": ef.NeoHooke(0.5)}, features=SYMMETRY + [suture],
+                     probes={"a": [1.0, 1.0, 1.0], "b": [1.0, 0.25, 1.0]})
+    final = scene.run()["steps"][-1]
+    for support in ("x0", "y0", "z0"):
+        assert np.allclose(final["reactions"][support], 0.0, atol=1e-12)
+    assert final["probes"]["a"][1] < 0  # the corner moved toward the other end
+    assert final["sutures"]["tie"]["length"] < 1.0
+
+
+def test_free_band_shrinks_by_the_reduction():
+    """A free thin ring (t/R = 0.02) whose rest length is shortened by Delta settles at the
+    circumference C - Delta (exact for a thin ring; the thickness adds O((t/R)^2))."""
+    R, t = 10.0, 0.2
+    mesh = built_mesh(build_band, MPI.COMM_WORLD, inner_radius=R, thickness=t, width=0.5, z_center=0.25,
+                      n_circ=16, n_thick=2, n_width=2, sector=90.0)
+    band = BandTightening("band", 0.1 * 2 * np.pi * (R + t / 2))
+    scene = ef.Scene("ring", mesh, {"band": ef.NeoHooke(0.3)},
+                     features=[ef.Dirichlet("band_cut_0", {"y": 0.0}), ef.Dirichlet("band_cut_1", {"x": 0.0}),
+                               ef.Dirichlet("band_back", {"z": 0.0}), band],
+                     probes={"mid": [R + t / 2, 0.0, 0.0]}, solver=ef.SolverSettings(increments=2))
+    final = scene.run()["steps"][-1]
+    report = final["bands"]["band"]
+    assert report["circumference"] == pytest.approx(report["initial_circumference"] - band.reduction, rel=1e-4)
+    assert R + t / 2 + final["probes"]["mid"][0] == pytest.approx(0.9 * (R + t / 2), rel=1e-3)
