@@ -62,6 +62,7 @@ class Feature:
         """Add custom contributions to the Jacobian (PETSc Mat, global indices, ADD_VALUES)."""
 
     def report(self):
-        """What this feature writes into summary.json under ``section`` at the end of a step."""
+        """What this feature writes into summary.json at the end of a step: a dict under
+        ``section`` -> ``name``, or merged into ``section`` itself if ``name`` is None."""
         return None
 

@@ -116,6 +116,8 @@ class Scene:
             if isinstance(f, Dirichlet) and f.active:
                 result["reactions"][f.name] = f.reaction(residual)
             report = f.report()
-            if report is not None:
+            if report is not None and f.name is None:  # the report is the whole section
+                result.setdefault(f.section, {}).update(report)
+            elif report is not None:
                 result.setdefault(f.section, {})[f.name] = report
         return result
