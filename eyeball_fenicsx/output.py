@@ -84,12 +84,17 @@ class FieldOutput:
         self.comm.barrier()
 
 
-def write_json_atomic(path, data, comm=MPI.COMM_WORLD):
-    """Write JSON on rank 0 to a temporary name, then rename it into place."""
+def write_text_atomic(path, text, comm=MPI.COMM_WORLD):
+    """Write a text file on rank 0 to a temporary name, then rename it into place."""
     if comm.rank == 0:
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         tmp = f"{path}.tmp{os.getpid()}"
         with open(tmp, "w") as f:
-            json.dump(data, f, indent=1, allow_nan=False)
+            f.write(text)
         os.replace(tmp, path)
     comm.barrier()
+
+
+def write_json_atomic(path, data, comm=MPI.COMM_WORLD):
+    """Write JSON atomically (see ``write_text_atomic``); NaN is refused, never written."""
+    write_text_atomic(path, json.dumps(data, indent=1, allow_nan=False) if comm.rank == 0 else "", comm)

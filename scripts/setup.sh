@@ -4,7 +4,7 @@
 # system packages). Quick when everything is already there.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-packages=(python3-dolfinx-real python3-gmsh python3-pytest python3-matplotlib python3-scipy
+packages=(python3-dolfinx-real python3-gmsh python3-pytest python3-matplotlib python3-scipy python3-tomli-w
           python3-venv libopenblas0-serial openmpi-bin)
 if ! dpkg -s "${packages[@]}" >/dev/null 2>&1; then
   sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
