@@ -45,12 +45,15 @@ class LiquidCavity(Feature):
         injected_volume: liquid volume added in the cavity's step (negative: removed).
         symmetry: names of the planes x=0, y=0, z=0 that close an open surface.
         algorithm: "new" (bordered, one global unknown) or "previous" (dense tangent).
+        pressurize: bring the cavity to ``initial_pressure`` in its step by filling it (the
+            pressure is prescribed, the liquid fills what it takes); the liquid law then holds
+            about the filled state. For a stress-free mesh of an eye that is at its IOP.
     """
 
     section = "cavities"
 
     def __init__(self, name, surface, bulk_modulus, initial_pressure=0.0, injected_volume=0.0,
-                 symmetry=(), step=0, algorithm="new"):
+                 symmetry=(), step=0, algorithm="new", pressurize=False):
         for key, value in (("bulk_modulus", bulk_modulus), ("initial_pressure", initial_pressure),
                            ("injected_volume", injected_volume)):
             if isinstance(value, bool) or not isinstance(value, (int, float)) or np.isnan(value):
@@ -64,7 +67,11 @@ class LiquidCavity(Feature):
             raise SceneError(f"cavity {name!r}: symmetry planes must be among 'x', 'y', 'z', got {unknown}")
         if algorithm not in ("new", "previous"):
             raise SceneError(f"cavity {name!r}: algorithm must be 'new' or 'previous', got {algorithm!r}")
+        if pressurize and injected_volume:
+            raise SceneError(f"cavity {name!r}: pressurize fills the cavity to its initial_pressure; "
+                             "give no injected_volume with it (use an injection in a later step)")
         self.name, self.surface, self.step = name, surface, step
+        self.pressurize, self.filling = pressurize, False
         self.K, self.p_ini, self.dV_inj = float(bulk_modulus), float(initial_pressure), float(injected_volume)
         self.symmetry = [AXES[s] for s in symmetry]
         self.algorithm = algorithm
@@ -87,7 +94,7 @@ class LiquidCavity(Feature):
         self.dV_form = fem.form(ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W)))
         self.pressure = fem.Constant(msh, 0.0)
         self._load = -self.pressure * ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W))
-        self.V_ini = self.volume()
+        self.V_ini = self.V_ref = self.volume()
         if not self.V_ini > 0:
             raise SceneError(f"cavity {self.name!r}: the volume enclosed by {self.surface!r} is {self.V_ini:.4g}, "
                              "not positive: check the symmetry planes and that the surface faces the liquid")
@@ -102,6 +109,13 @@ class LiquidCavity(Feature):
     def set_load_factor(self, factor):
         self.factor = factor
 
+    def begin_step(self, step_index):
+        if self.pressurize and step_index == self.step:
+            self.filling = True
+        elif self.filling and step_index > self.step:  # filled: the liquid law from here on
+            self.filling = False
+            self.V_ref = self.current_volume
+
     def volume(self):
         return self.solid.comm.allreduce(fem.assemble_scalar(self.volume_form), op=MPI.SUM)
 
@@ -111,8 +125,11 @@ class LiquidCavity(Feature):
         return self.factor * self.dV_inj + sum(i.factor * i.volume for i in self.injections)
 
     def law(self, V):
-        """Liquid pressure at volume V (at the current load factor)."""
-        return self.factor * self.p_ini - self.K * (V - self.V_ini - self.injected()) / self.V_ini
+        """Liquid pressure at volume V (at the current load factor); while filling, the
+        prescribed pressure."""
+        if self.filling:
+            return self.factor * self.p_ini
+        return self.factor * self.p_ini - self.K * (V - self.V_ref - self.injected()) / self.V_ref
 
     def state_changed(self):
         self.current_volume = self.volume()
@@ -122,9 +139,9 @@ class LiquidCavity(Feature):
             self.pressure.value = self.law(self.current_volume)
 
     def unknown_residuals(self):
-        """dPi/dp = -(V - V_ini - dV_inj) - V_ini (p - p_ini) / K."""
+        """dPi/dp = -(V - V_ref - dV_inj) - V_ref (p - p_ini) / K (scaled alike while filling)."""
         p = self.unknowns[0]
-        return [(self.law(self.current_volume) - p) * self.V_ini / self.K]
+        return [(self.law(self.current_volume) - p) * self.V_ref / self.K]
 
     def _volume_gradient(self):
         """V' on the owned wetted dofs."""
@@ -137,7 +154,8 @@ class LiquidCavity(Feature):
     def border(self):
         """(owned wetted dofs, column dR_u/dp, row dR_p/du, dR_p/dp)."""
         gradient = -self._volume_gradient()
-        return [(self.wetted, gradient, gradient, -self.V_ini / self.K)]
+        row = np.zeros_like(gradient) if self.filling else gradient
+        return [(self.wetted, gradient, row, -self.V_ref / self.K)]
 
     def coupling(self):
         if self.algorithm != "previous":
@@ -147,11 +165,13 @@ class LiquidCavity(Feature):
         return np.repeat(rows, len(cols)), np.tile(cols, len(rows))
 
     def add_to_jacobian(self, A):
+        if self.filling:  # the pressure is prescribed: no dependence on the volume
+            return
         rows = self._problem_globals(self.wetted)
         gradient = self._volume_gradient()
         cols = np.concatenate(self.solid.comm.allgather(rows))
         all_gradient = np.concatenate(self.solid.comm.allgather(gradient))
-        A.setValues(rows, cols, (self.K / self.V_ini) * np.outer(gradient, all_gradient),
+        A.setValues(rows, cols, (self.K / self.V_ref) * np.outer(gradient, all_gradient),
                     addv=PETSc.InsertMode.ADD_VALUES)
 
     def _problem_globals(self, local):
@@ -160,8 +180,9 @@ class LiquidCavity(Feature):
 
     def report(self):
         p = self.unknowns[0] if self.algorithm == "new" else self.law(self.current_volume)
+        filled = (self.current_volume if self.filling else self.V_ref) - self.V_ini
         return {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini),
-                "injected_volume": float(self.injected())}
+                "injected_volume": float(filled + self.injected())}
 
 
 class Injection(Feature):

@@ -11,8 +11,8 @@ import pytest
 from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
-from eyeball_fenicsx.analytic import sphere_pressure
-from eyeball_fenicsx.cavity import LiquidCavity
+from eyeball_fenicsx.analytic import sphere_inner_stretch, sphere_pressure
+from eyeball_fenicsx.cavity import Injection, LiquidCavity
 
 A, B = 1.0, 2.0
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
@@ -105,3 +105,29 @@ def test_open_surface_is_rejected(sphere_mesh):
     scene = ef.Scene("open", sphere_mesh(n=2, layers=1), {"wall": ef.NeoHooke(0.5)}, features=SYMMETRY + [cavity])
     with pytest.raises(ef.SceneError, match=r"not closed: \d+ open edge\(s\), e\.g\. near \[.*, 0\.0\]"):
         scene.build()
+
+
+def test_pressurize_fills_to_the_pressure_then_holds_the_liquid(sphere_mesh):
+    """Step 1 fills the cavity to p_ini (pressure control: the inner stretch is the closed
+    form's at P = p_ini); step 2 injects dV more into a liquid of bulk modulus K about the
+    filled state V_1: the closed form with p_ini -> P_1, V_ini -> V_1 (the stretch now
+    measured from the reference: lam^3 V_ini = V)."""
+    c, K, p_ini = {(1, 0): 0.5}, 10.0, 0.2
+    cavity = LiquidCavity("liquid", "inner", K, p_ini, symmetry=["x", "y", "z"], pressurize=True)
+    injection = Injection(cavity, 0.05, step=1)
+    scene = ef.Scene("fill", sphere_mesh(n=6, layers=3), {"wall": ef.MooneyRivlin(c)},
+                     features=SYMMETRY + [cavity, injection], probes={"inner": [A, 0.0, 0.0]},
+                     steps=[ef.Step("fill"), ef.Step("inject")], solver=ef.SolverSettings(increments=2))
+    filled, injected = scene.run()["steps"]
+    lam1 = 1 + filled["probes"]["inner"][0]
+    assert filled["cavities"]["liquid"]["pressure"] == pytest.approx(p_ini, rel=1e-9)
+    assert lam1 - 1 == pytest.approx(sphere_inner_stretch(p_ini, c, A, B) - 1, rel=0.03)  # 216 cells: ~2.3%
+    V1, V_ini = filled["cavities"]["liquid"]["volume"], filled["cavities"]["liquid"]["initial_volume"]
+    lam = brentq(lambda lam: sphere_pressure(lam, c, A, B) - (p_ini - K * (lam**3 * V_ini - V1 - 0.05) / V1),
+                 lam1, 2.0, xtol=1e-14)
+    result = injected["cavities"]["liquid"]
+    assert 1 + injected["probes"]["inner"][0] - lam1 == pytest.approx(lam - lam1, rel=0.03)
+    assert result["pressure"] == pytest.approx(sphere_pressure(lam, c, A, B), rel=0.03)
+    # the liquid's law about the filled state holds exactly
+    assert result["pressure"] == pytest.approx(p_ini - K * (result["volume"] - V1 - 0.05) / V1, rel=1e-7)
+    assert result["injected_volume"] == pytest.approx(V1 - V_ini + 0.05, rel=1e-9)
