@@ -5,6 +5,7 @@ Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is 
 Options after the scene that argparse does not know (``-eye_snes_monitor``...) go to PETSc.
 """
 import argparse
+import logging
 import sys
 
 from mpi4py import MPI
@@ -28,6 +29,13 @@ def _petsc_options(tokens):
         i += 1
 
 
+def _warnings_only(record):
+    """Filter of the root logger. The JIT compiler (cffi through distutils) logs every form it
+    compiles at INFO on the root logger, and ffcx's ``logging.basicConfig()`` sends that to
+    stderr, which is for warnings and the one-line error."""
+    return record.levelno >= logging.WARNING
+
+
 def _fail(code, message):
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: {message}", file=sys.stderr, flush=True)
@@ -41,11 +49,15 @@ def main(argv=None):
     run.add_argument("scene")
     run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf)")
     args, petsc = parser.parse_known_args(argv)
+    logging.getLogger().addFilter(_warnings_only)
     try:
         _petsc_options(petsc)
         from .scenefile import load_scene
         scene = load_scene(args.scene)
-        scene.run(args.out)
+        try:
+            scene.run(args.out)
+        except SceneError as error:  # found while building (probes, cavities): say which file
+            raise SceneError(f"{args.scene}: {error}") from None
     except SceneError as error:
         return _fail(2, error)
     except ConvergenceError as error:

@@ -23,7 +23,7 @@ from .cavity import LiquidCavity
 from .errors import SceneError
 from .loads import Dirichlet, NodalForce, Pressure
 from .materials import LinearElastic, MooneyRivlin, NeoHooke
-from .mesh import load_mesh, mesh_from_gmsh_model
+from .mesh import built_mesh, load_mesh
 from .scene import Scene, Step
 from .solver import SolverSettings
 
@@ -91,11 +91,12 @@ def _array(data, key, path):
 
 
 def _material(table: _Table):
-    model = table.data.get("model")
+    """A [materials.<region>] table -> its material law."""
+    model = table.get("model", "string", required=True)
     if model == "neo-hooke":
         _Table(table.data, table.where, {"model", "c10"})
-        return NeoHooke(table.get("c10", "positive", required=True))
-    if model == "mooney-rivlin":
+        law, arguments = NeoHooke, [table.get("c10", "positive", required=True)]
+    elif model == "mooney-rivlin":
         _Table(table.data, table.where, {"model", "c"})
         c = table.get("c", None, required=True)
         if not isinstance(c, dict) or not c:
@@ -105,11 +106,17 @@ def _material(table: _Table):
             if len(key) != 2 or not key.isdigit():
                 raise table.error(f'coefficient names are two digits "rs" for (I1bar-3)^r (I2bar-3)^s, got {key!r}')
             coefficients[(int(key[0]), int(key[1]))] = value
-        return MooneyRivlin(coefficients)
-    if model == "linear-elastic":
+        law, arguments = MooneyRivlin, [coefficients]
+    elif model == "linear-elastic":
         _Table(table.data, table.where, {"model", "E", "nu"})
-        return LinearElastic(table.get("E", "positive", required=True), table.get("nu", "number", required=True))
-    raise table.error(f"unknown model {model!r}: choose neo-hooke, mooney-rivlin or linear-elastic")
+        law, arguments = LinearElastic, [table.get("E", "positive", required=True),
+                                         table.get("nu", "number", required=True)]
+    else:
+        raise table.error(f"unknown model {model!r}: choose neo-hooke, mooney-rivlin or linear-elastic")
+    try:
+        return law(*arguments)
+    except SceneError as error:  # the law's own checks: nu < 0.5, c10 + c01 > 0, ...
+        raise table.error(str(error)) from None
 
 
 RIGID_SHAPES = {"plane": {"point", "normal"}, "sphere": {"center", "radius"},
@@ -145,7 +152,10 @@ def _contact(t: _Table, step_of):
 def _mesh(table: _Table, directory, comm):
     if table.has("file"):
         _Table(table.data, table.where, {"file"})
-        path = os.path.join(directory, table.get("file", "string"))
+        given = table.get("file", "string")
+        path = os.path.join(directory, given)
+        if not os.path.isfile(path):
+            raise table.error(f"file = {given!r}: {path} does not exist (the path is relative to the scene file)")
         return load_mesh(path, comm)
     builder = table.get("builder", "string", required=False)
     from meshes import block, sphere_octant
@@ -153,25 +163,10 @@ def _mesh(table: _Table, directory, comm):
     if builder not in builders:
         raise table.error(f"give file = \"<mesh>.msh\" or builder = one of {sorted(builders)}")
     options = {k: v for k, v in table.data.items() if k != "builder"}
-    import gmsh
-    message = None
-    if comm.rank == 0:
-        gmsh.initialize()
-        gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            builders[builder](**options)
-        except (TypeError, ValueError) as error:
-            message = f"{table.where}: builder {builder!r}: {error}"
-    message = comm.bcast(message, root=0)
-    if message:
-        if comm.rank == 0:
-            gmsh.finalize()
-        raise SceneError(message)
     try:
-        return mesh_from_gmsh_model(gmsh.model, comm, f"builder {builder}")
-    finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+        return built_mesh(builders[builder], comm, **options)
+    except SceneError as error:
+        raise table.error(str(error)) from None
 
 
 def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
@@ -203,8 +198,8 @@ def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
 
     if "materials" not in data or not isinstance(data["materials"], dict) or not data["materials"]:
         raise SceneError(f"{path}: no [materials.<region>] table: give one per volume group of the mesh")
-    materials = {region: _material(_Table(t, f"{path}: [materials.{region}]", {"model", "c10", "c", "E", "nu"}))
-                 for region, t in data["materials"].items()}
+    materials = {region: _material(_Table(t, f"{path}: [materials.{region}]", t if isinstance(t, dict) else ()))
+                 for region, t in data["materials"].items()}  # keys are checked per model
 
     features, surfaces_used = [], []
     for t, where in _array(data, "dirichlet", path):
@@ -238,11 +233,12 @@ def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
             raise t.error(f"cavity name {name_!r} is used twice")
         cavity_names.add(name_)
         surface = t.get("surface", "string", required=True)
+        arguments = (name_, surface, t.get("bulk_modulus", "positive", required=True),
+                     t.get("initial_pressure", "number", 0.0), t.get("injected_volume", "number", 0.0),
+                     t.get("symmetry", "strings", []))
+        options = {"step": step_of(t), "algorithm": t.get("algorithm", "string", "new")}
         try:
-            features.append(LiquidCavity(
-                name_, surface, t.get("bulk_modulus", "positive", required=True),
-                t.get("initial_pressure", "number", 0.0), t.get("injected_volume", "number", 0.0),
-                t.get("symmetry", "strings", []), step=step_of(t), algorithm=t.get("algorithm", "string", "new")))
+            features.append(LiquidCavity(*arguments, **options))
         except SceneError as error:
             raise t.error(str(error)) from None
         surfaces_used.append((surface, where))
@@ -279,4 +275,8 @@ def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
         if region not in mesh_data.regions:
             raise SceneError(f"{path}: [materials.{region}]: {region!r} is not a volume group of mesh "
                              f"{mesh_data.source} (its regions: {sorted(mesh_data.regions)})")
+    missing = sorted(set(mesh_data.regions) - set(materials))
+    if missing:
+        raise SceneError(f"{path}: no [materials.<region>] table for region(s) {missing} of mesh {mesh_data.source}: "
+                         "give every volume group of the mesh a material")
     return Scene(name, mesh_data, materials, features, probes, steps, settings, element)
