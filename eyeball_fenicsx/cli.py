@@ -48,10 +48,19 @@ def main(argv=None):
     run = commands.add_parser("run", help="run a scene TOML file")
     run.add_argument("scene")
     run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf)")
+    sweep = commands.add_parser("sweep", help="run a scene over values of one parameter (CSV + PNG)")
+    sweep.add_argument("scene")
+    sweep.add_argument("--parameter", required=True, help="dotted path into the scene, e.g. band.0.reduction")
+    sweep.add_argument("--values", required=True, nargs="+", type=float)
+    sweep.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.png, one folder a run)")
     args, petsc = parser.parse_known_args(argv)
     logging.getLogger().addFilter(_warnings_only)
     try:
         _petsc_options(petsc)
+        if args.command == "sweep":
+            from .sweep import run_sweep
+            run_sweep(args.scene, args.parameter, args.values, args.out)
+            return 0
         from .scenefile import load_scene
         scene = load_scene(args.scene)
         try:

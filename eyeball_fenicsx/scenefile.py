@@ -11,7 +11,15 @@ Extensions beyond the contract (documented in README.md):
   cavity and contact: it ramps in that step and is held after it (default: the first step);
 * ``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``;
 * ``[[force]]`` with ``point`` instead of ``surface`` (the node nearest to the point);
-* ``[[cavity]] algorithm = "new" | "previous"``.
+* ``[[cavity]] algorithm = "new" | "previous"`` and ``pressurize = true`` (fill the cavity to
+  its ``initial_pressure`` in its step: the eye brought to its IOP);
+* ``[[injection]]`` (``cavity``, ``volume``, ``step``): liquid added or removed in a step;
+* ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
+  ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
+* ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
+* ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
+  ``posterior_surface``): the eye measures written under "eye" in summary.json;
+* ``[mesh] builder = "eye" | "band"`` (meshes/eye.py, meshes/band.py).
 """
 import math
 import os
@@ -19,16 +27,19 @@ import tomllib
 
 from mpi4py import MPI
 
-from .cavity import LiquidCavity
+from .buckle import BandTightening
+from .cavity import Injection, LiquidCavity
 from .errors import SceneError
 from .loads import Dirichlet, NodalForce, Pressure
 from .materials import LinearElastic, MooneyRivlin, NeoHooke
+from .measures import EyeMeasures
 from .mesh import built_mesh, load_mesh
 from .scene import Scene, Step
 from .solver import SolverSettings
+from .sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
-             "solver", "step"}
+             "solver", "step", "injection", "suture", "band", "eye"}
 
 
 class _Table:
@@ -158,8 +169,9 @@ def _mesh(table: _Table, directory, comm):
             raise table.error(f"file = {given!r}: {path} does not exist (the path is relative to the scene file)")
         return load_mesh(path, comm)
     builder = table.get("builder", "string", required=False)
-    from meshes import block, sphere_octant
-    builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant}
+    from meshes import band, block, eye, sphere_octant
+    builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant,
+                "eye": eye.build_eye, "band": band.build_band}
     if builder not in builders:
         raise table.error(f"give file = \"<mesh>.msh\" or builder = one of {sorted(builders)}")
     options = {k: v for k, v in table.data.items() if k != "builder"}
@@ -224,24 +236,64 @@ def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
                                    point=t.get("point", "vector"), step=step_of(t)))
         if surface:
             surfaces_used.append((surface, where))
-    cavity_names = set()
+    cavities = {}
     for t, where in _array(data, "cavity", path):
         t = _Table(t, where, {"name", "surface", "bulk_modulus", "initial_pressure", "injected_volume",
-                              "symmetry", "step", "algorithm"})
+                              "symmetry", "step", "algorithm", "pressurize"})
         name_ = t.get("name", "string", required=True)
-        if name_ in cavity_names:
+        if name_ in cavities:
             raise t.error(f"cavity name {name_!r} is used twice")
-        cavity_names.add(name_)
         surface = t.get("surface", "string", required=True)
         arguments = (name_, surface, t.get("bulk_modulus", "positive", required=True),
                      t.get("initial_pressure", "number", 0.0), t.get("injected_volume", "number", 0.0),
                      t.get("symmetry", "strings", []))
-        options = {"step": step_of(t), "algorithm": t.get("algorithm", "string", "new")}
+        options = {"step": step_of(t), "algorithm": t.get("algorithm", "string", "new"),
+                   "pressurize": t.get("pressurize", "bool", False)}
         try:
-            features.append(LiquidCavity(*arguments, **options))
+            cavities[name_] = LiquidCavity(*arguments, **options)
         except SceneError as error:
             raise t.error(str(error)) from None
+        features.append(cavities[name_])
         surfaces_used.append((surface, where))
+    for t, where in _array(data, "injection", path):
+        t = _Table(t, where, {"cavity", "volume", "step"})
+        cavity = t.get("cavity", "string", required=True)
+        if cavity not in cavities:
+            raise t.error(f"cavity {cavity!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
+        features.append(Injection(cavities[cavity], t.get("volume", "number", required=True), step=step_of(t)))
+    for t, where in _array(data, "suture", path):
+        t = _Table(t, where, {"name", "first", "second", "tension", "shortening", "stiffness", "first_surface",
+                              "second_surface", "anchored", "step"})
+        ends = {key: t.get(key, "string") for key in ("first_surface", "second_surface")}
+        try:
+            features.append(Suture(t.get("name", "string", required=True), t.get("first", "vector", required=True),
+                                   t.get("second", "vector", required=True), tension=t.get("tension", "nonnegative"),
+                                   shortening=t.get("shortening", "nonnegative"),
+                                   stiffness=t.get("stiffness", "positive"), anchored=t.get("anchored", "bool", False),
+                                   step=step_of(t), **ends))
+        except SceneError as error:
+            raise t.error(str(error)) from None
+        surfaces_used.extend((n, where) for n in ends.values() if n)
+    for t, where in _array(data, "band", path):
+        t = _Table(t, where, {"region", "reduction", "center", "axis", "step"})
+        region = t.get("region", "string", required=True)
+        if region not in materials:
+            raise t.error(f"region {region!r} has no [materials.{region}] table")
+        features.append(BandTightening(region, t.get("reduction", "number", required=True),
+                                       center=t.get("center", "vector", [0.0, 0.0, 0.0]),
+                                       axis=t.get("axis", "vector", [0.0, 0.0, 1.0]), step=step_of(t)))
+    if "eye" in data:
+        t = _Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
+                                                   "posterior_surface"})
+        vitreous = t.get("vitreous", "string")
+        if vitreous is not None and vitreous not in cavities:
+            raise t.error(f"vitreous = {vitreous!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
+        ends = {key: t.get(key, "string", default) for key, default in
+                (("anterior_surface", "cornea_outer"), ("posterior_surface", "vitreous_wall"))}
+        features.append(EyeMeasures(t.get("anterior", "vector", [0.0, 0.0, 1e3]),
+                                    t.get("posterior", "vector", [0.0, 0.0, -1e3]),
+                                    vitreous=cavities.get(vitreous), **ends))
+        surfaces_used.extend((n, t.where) for n in ends.values())
     for t, where in _array(data, "contact", path):
         feature, names = _contact(_Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"}), step_of)
         features.append(feature)

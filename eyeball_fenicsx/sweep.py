@@ -36,9 +36,11 @@ def set_parameter(data, path, value):
 
 
 def flatten(entries, prefix=""):
-    """{"a": 1, "b": {"c": 2}} -> {"a": 1, "b.c": 2}."""
+    """{"a": 1, "b": {"c": 2}, "d": [3, 4]} -> {"a": 1, "b.c": 2, "d.0": 3, "d.1": 4}."""
     flat = {}
     for key, value in entries.items():
+        if isinstance(value, list):
+            value = dict(enumerate(value))
         if isinstance(value, dict):
             flat.update(flatten(value, f"{prefix}{key}."))
         else:
@@ -80,12 +82,14 @@ def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
                 import json
                 summary = json.load(f)
         final = summary["steps"][-1] if summary["steps"] else {}
-        rows.append({parameter: value, "ok": ok, "wall_s": summary["wall_s"], **flatten(final.get("eye", {}))})
+        measured = {key: v for key, v in final.items() if key not in ("name", "increments")}
+        rows.append({parameter: value, "ok": ok, "wall_s": summary["wall_s"], **flatten(measured)})
     columns = list(dict.fromkeys(key for row in rows for key in row))
     lines = [",".join(columns)] + [",".join(str(row.get(c, "")) for c in columns) for row in rows]
     write_text_atomic(os.path.join(out_dir, "sweep.csv"), "\n".join(lines) + "\n", comm)
     if comm.rank == 0:
         _plot(rows, parameter, os.path.join(out_dir, "sweep.png"))
+    comm.barrier()
     return rows
 
 
@@ -94,7 +98,9 @@ def _plot(rows, parameter, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     numeric = [c for c in rows[0] if c not in (parameter, "ok", "wall_s")
-               and all(isinstance(r.get(c), (int, float)) for r in rows)]
+               and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
+    if any(c.startswith("eye.") for c in numeric):
+        numeric = [c for c in numeric if c.startswith("eye.")]
     if not numeric:
         return
     columns = min(3, len(numeric))
