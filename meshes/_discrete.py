@@ -69,37 +69,81 @@ def boundary_quads(hexes, side):
     return layer[..., HEX_FACES[side]].reshape(-1, 4)
 
 
-def add_hex_model(name, nodes, hexes, region, surfaces):
-    """Add a gmsh model made of one discrete volume of hexahedra and named discrete boundary surfaces.
+def add_hex_model(name, nodes, hexes, region, surfaces, regions=None):
+    """Add a gmsh model made of discrete volumes of hexahedra and named discrete boundary surfaces.
 
-    The volume physical group gets tag 1 and the surface physical groups tags 2, 3, ... in the
-    order of ``surfaces``. Must be called with gmsh initialized; the new model becomes current.
+    One region: the volume physical group gets tag 1 and the surface physical groups tags 2, 3, ...
+    in the order of ``surfaces``. Several regions (``regions``): the volume groups get tags
+    1 .. len(regions) in the order of ``regions``, and the surface groups the next tags. Must be
+    called with gmsh initialized; the new model becomes current.
 
     Args:
         name: name of the gmsh model.
         nodes: node coordinates, shape ``(num_nodes, 3)``.
-        hexes: 0-based node indices of the hexahedra in gmsh order, shape ``(num_hexes, 8)``.
-        region: name of the volume physical group.
+        hexes: 0-based node indices of the hexahedra in gmsh order, shape ``(num_hexes, 8)``;
+            None with ``regions``.
+        region: name of the volume physical group; None with ``regions``.
         surfaces: surface physical-group name -> 0-based node indices of its quadrilaterals,
             shape ``(count, 4)``.
+        regions: volume physical-group name -> 0-based node indices of its hexahedra, shape
+            ``(count, 8)``, instead of ``hexes`` and ``region``. Regions share the nodes they
+            have in common (bonded tissues).
     """
+    if regions is None:
+        regions = {region: hexes}
+    elif hexes is not None or region is not None:
+        raise ValueError("add_hex_model: give either hexes and region, or regions")
     gmsh.model.add(name)
-    volume = 1
-    surface_tags = list(range(2, len(surfaces) + 2))
+    volume_tags = list(range(1, len(regions) + 1))
+    surface_tags = list(range(len(regions) + 1, len(regions) + len(surfaces) + 1))
     for tag in surface_tags:
         gmsh.model.addDiscreteEntity(2, tag)
-    gmsh.model.addDiscreteEntity(3, volume, surface_tags)
-    gmsh.model.mesh.addNodes(3, volume, np.arange(1, len(nodes) + 1), np.ravel(nodes))
-    gmsh.model.mesh.addElementsByType(volume, HEXAHEDRON, np.arange(1, len(hexes) + 1), np.ravel(hexes) + 1)
-    gmsh.model.addPhysicalGroup(3, [volume], volume)
-    gmsh.model.setPhysicalName(3, volume, region)
-    first = len(hexes) + 1
+    for tag in volume_tags:
+        gmsh.model.addDiscreteEntity(3, tag, surface_tags if tag == 1 else [])
+    # All nodes go to the first volume; reclassifyNodes() puts each on the entity it belongs to.
+    gmsh.model.mesh.addNodes(3, 1, np.arange(1, len(nodes) + 1), np.ravel(nodes))
+    first = 1
+    for tag, (region_name, cells) in zip(volume_tags, regions.items()):
+        gmsh.model.mesh.addElementsByType(tag, HEXAHEDRON, np.arange(first, first + len(cells)), np.ravel(cells) + 1)
+        first += len(cells)
+        gmsh.model.addPhysicalGroup(3, [tag], tag)
+        gmsh.model.setPhysicalName(3, tag, region_name)
     for tag, (surface, quads) in zip(surface_tags, surfaces.items()):
         gmsh.model.mesh.addElementsByType(tag, QUADRANGLE, np.arange(first, first + len(quads)), np.ravel(quads) + 1)
         first += len(quads)
         gmsh.model.addPhysicalGroup(2, [tag], tag)
         gmsh.model.setPhysicalName(2, tag, surface)
     gmsh.model.mesh.reclassifyNodes()
+
+
+# Corners of the gmsh hexahedron by reference position (a, b, c) in {0, 1}^3 along (u, v, w).
+_CORNER = {(0, 0, 0): 0, (1, 0, 0): 1, (1, 1, 0): 2, (0, 1, 0): 3,
+           (0, 0, 1): 4, (1, 0, 1): 5, (1, 1, 1): 6, (0, 1, 1): 7}
+
+
+def corner_jacobians(nodes, hexes):
+    """Corner Jacobians of trilinear hexahedra: det(J) and the scaled Jacobian at each of the 8 corners.
+
+    At a corner the columns of J are the three edges along u, v and w, so the scaled Jacobian
+    det(J) / (|J_1| |J_2| |J_3|) is 1 for a right-angled corner, sin(alpha) for a corner where two
+    edges meet at an angle alpha and the third is perpendicular to both, and <= 0 for an inverted one.
+
+    Args:
+        nodes: node coordinates, shape ``(num_nodes, 3)``.
+        hexes: node indices in gmsh order, shape ``(num_hexes, 8)``.
+
+    Returns:
+        ``(det, scaled)``, each of shape ``(num_hexes, 8)``.
+    """
+    x = nodes[hexes]
+    det, scaled = np.empty(hexes.shape), np.empty(hexes.shape)
+    for (a, b, c), corner in _CORNER.items():
+        columns = np.stack([x[:, _CORNER[1, b, c]] - x[:, _CORNER[0, b, c]],
+                            x[:, _CORNER[a, 1, c]] - x[:, _CORNER[a, 0, c]],
+                            x[:, _CORNER[a, b, 1]] - x[:, _CORNER[a, b, 0]]], axis=-1)
+        det[:, corner] = np.linalg.det(columns)
+        scaled[:, corner] = det[:, corner] / np.prod(np.linalg.norm(columns, axis=-2), axis=-1)
+    return det, scaled
 
 
 def write_msh(path, build, **options):
