@@ -7,3 +7,9 @@ from .solver import SolverSettings
 
 __all__ = ["ConvergenceError", "SceneError", "Dirichlet", "NodalForce", "Pressure", "LinearElastic",
            "MooneyRivlin", "NeoHooke", "Scene", "Step", "SolverSettings"]
+
+# A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
+# up after 10 s, too short for the eye's forms on a busy two-core machine.
+import dolfinx.jit as _jit  # noqa: E402
+
+_jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"] = (600, _jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"][1])

@@ -36,9 +36,12 @@ class MooneyRivlin:
         for (r, s), value in self.c.items():
             if not (isinstance(r, int) and isinstance(s, int) and r >= 0 and s >= 0 and r + s > 0):
                 raise SceneError(f"c: exponents must be non-negative integers, not both zero, got ({r}, {s})")
+            if isinstance(value, ufl.core.expr.Expr):
+                continue  # cell-wise constants gathered from laws that were checked (formulation.py)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise SceneError(f"c{r}{s} must be a finite number, got {value!r}")
-        _positive("the initial shear modulus 2 (c10 + c01)", self.shear_modulus)
+        if not any(isinstance(value, ufl.core.expr.Expr) for value in self.c.values()):
+            _positive("the initial shear modulus 2 (c10 + c01)", self.shear_modulus)
 
     @property
     def shear_modulus(self):
