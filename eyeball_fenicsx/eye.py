@@ -8,7 +8,7 @@ TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body
                   "retina": "hotpink", "optic_nerve": "gold", "lens": "steelblue", "zonule": "seagreen"}
 
 
-def meridional_section(mesh_data, tolerance=1e-9):
+def meridional_section(mesh_data, tolerance=1e-9, solid=None, field=None):
     """Faces of the mesh in the plane y = 0 (the section through the optic axis at azimuth 0 and 180).
 
     Collective.
@@ -17,10 +17,13 @@ def meridional_section(mesh_data, tolerance=1e-9):
         mesh_data: a :class:`~eyeball_fenicsx.mesh.MeshData` of hexahedra whose nodes lie exactly on
             y = 0 where the section cuts them (true of ``meshes.eye``).
         tolerance: distance (mesh units) under which a node is on the plane.
+        solid: if given, the faces are drawn in its current (deformed) configuration.
+        field: a cell-wise (DG0) function whose value each face takes (von Mises stress).
 
     Returns:
-        On rank 0, ``(polygons, regions)``: the faces' corners in the (x, z) plane in cyclic order,
-        shape ``(count, 4, 2)``, and the region name of each face; ``(None, None)`` elsewhere.
+        On rank 0, ``(polygons, regions, values)``: the faces' corners in the (x, z) plane in
+        cyclic order, shape ``(count, 4, 2)``, the region name of each face and the field's
+        value on it (None without a field); ``(None, None, None)`` elsewhere.
     """
     msh = mesh_data.mesh
     tdim = msh.topology.dim
@@ -38,11 +41,18 @@ def meridional_section(mesh_data, tolerance=1e-9):
                            dtype=np.int32)
     tag_of_cell[mesh_data.cell_tags.indices] = mesh_data.cell_tags.values
     regions = [names.get(tag, "") for tag in tag_of_cell[cells]]
-    gathered = msh.comm.gather((x[in_plane][..., [0, 2]], regions), root=0)
+    corners = x[in_plane]
+    if solid is not None and len(cells):  # each corner moved by u evaluated in the face's cell
+        u = solid.w.sub(0)
+        points = corners.reshape(-1, 3)
+        corners = corners + u.eval(points, np.repeat(cells, 4))[:, :3].reshape(corners.shape)
+    values = field.x.array[cells] if field is not None else np.full(len(cells), np.nan)
+    gathered = msh.comm.gather((corners[..., [0, 2]], regions, values), root=0)
     if msh.comm.rank != 0:
-        return None, None
+        return None, None, None
     return (np.concatenate([g[0] for g in gathered]).reshape(-1, 4, 2),
-            [name for g in gathered for name in g[1]])
+            [name for g in gathered for name in g[1]],
+            np.concatenate([g[2] for g in gathered]) if field is not None else None)
 
 
 def eye_section_png(mesh_data, path, title=None):
@@ -55,7 +65,7 @@ def eye_section_png(mesh_data, path, title=None):
         path: the .png file to write.
         title: optional title of the figure.
     """
-    polygons, regions = meridional_section(mesh_data)
+    polygons, regions, _ = meridional_section(mesh_data)
     if polygons is None:  # not rank 0
         return
     import matplotlib
@@ -74,6 +84,38 @@ def eye_section_png(mesh_data, path, title=None):
     present = [name for name in TISSUE_COLOURS if name in set(regions)]
     axes.legend(handles=[Patch(facecolor=TISSUE_COLOURS[name], edgecolor="black", label=name.replace("_", " "))
                          for name in present], loc="center", fontsize=8, frameon=False)
+    if title:
+        axes.set_title(title)
+    figure.tight_layout()
+    figure.savefig(path, dpi=150)
+    plt.close(figure)
+
+
+def stress_section_png(solid, mises, path, title=None):
+    """Draw the deformed meridional section coloured by the von Mises stress (MPa), as the
+    seed shows its results. Collective; rank 0 writes the file.
+
+    Args:
+        solid: the solved ``MixedSolid`` (its current displacement deforms the section).
+        mises: a cell-wise (DG0) function of the von Mises stress.
+        path: the .png file to write.
+    """
+    polygons, _, values = meridional_section(solid.mesh_data, solid=solid, field=mises)
+    if polygons is None:
+        return
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    figure, axes = plt.subplots(figsize=(7, 8))
+    collection = PolyCollection(polygons, array=values, cmap="jet", edgecolors="none")
+    axes.add_collection(collection)
+    figure.colorbar(collection, ax=axes, label="von Mises stress (MPa)", shrink=0.7)
+    axes.autoscale_view()
+    axes.set_aspect("equal")
+    axes.set_xlabel("x (mm)")
+    axes.set_ylabel("z: optic axis (mm)")
     if title:
         axes.set_title(title)
     figure.tight_layout()

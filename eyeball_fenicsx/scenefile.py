@@ -181,8 +181,13 @@ def _mesh(table: _Table, directory, comm):
         raise table.error(str(error)) from None
 
 
-def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
-    """Read and check a scene TOML file, load its mesh and return the Scene."""
+def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
+    """Read and check a scene TOML file, load its mesh and return the Scene.
+
+    Args:
+        overrides: {dotted path: value} replacing entries of the file (``"mesh.n_circ"``),
+            as a sweep does.
+    """
     if not os.path.isfile(path):
         raise SceneError(f"scene file {path} does not exist")
     try:
@@ -190,6 +195,9 @@ def load_scene(path, comm=MPI.COMM_WORLD) -> Scene:
             data = tomllib.load(f)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
         raise SceneError(f"{path}: not valid TOML: {error}") from None
+    from .sweep import set_parameter
+    for key, value in (overrides or {}).items():
+        set_parameter(data, key, value)
     top = _Table(data, path, TOP_LEVEL)
     name = top.get("name", "string", default=os.path.splitext(os.path.basename(path))[0])
 
