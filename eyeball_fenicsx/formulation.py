@@ -25,8 +25,10 @@ from .errors import SceneError
 from .kinematics import cauchy_stress, deformation_gradient, von_mises
 from .materials import MooneyRivlin
 
-# name -> (displacement degree, pressure family, pressure degree)
-ELEMENTS = {"Q1P0": (1, "DG", 0), "Q2P0": (2, "DG", 0), "P2P0": (2, "DG", 0), "P1P0": (1, "DG", 0)}
+# name -> (displacement degree, pressure family, pressure degree). Q2P1 is the quadratic
+# hexahedron with a discontinuous linear pressure (DPC1), the optimal inf-sup stable pair.
+ELEMENTS = {"Q1P0": (1, "DG", 0), "Q2P0": (2, "DG", 0), "Q2P1": (2, "DPC", 1), "P2P0": (2, "DG", 0),
+            "P1P0": (1, "DG", 0)}
 DEFAULT_ELEMENT = {"hexahedron": "Q1P0", "tetrahedron": "P2P0"}
 
 
