@@ -39,7 +39,9 @@ class LiquidCavity(Feature):
 
     Args:
         name: the cavity's name in summary.json.
-        surface: the solid's wetted surface (surface group name).
+        surface: the solid's wetted surface: a surface group name, or a list of them (a
+            vitreous that communicates through a retinal break with the subretinal space
+            wets ["vitreous_wall", "retina_outer", "choroid_inner"]).
         bulk_modulus: K of the liquid (> 0; ``float("inf")`` makes it incompressible).
         initial_pressure: p_ini, the pressure in the reference state.
         injected_volume: liquid volume added in the cavity's step (negative: removed).
@@ -70,7 +72,9 @@ class LiquidCavity(Feature):
         if pressurize and injected_volume:
             raise SceneError(f"cavity {name!r}: pressurize fills the cavity to its initial_pressure; "
                              "give no injected_volume with it (use an injection in a later step)")
-        self.name, self.surface, self.step = name, surface, step
+        self.name, self.step = name, step
+        self.surfaces = [surface] if isinstance(surface, str) else list(surface)
+        self.surface = surface
         self.pressurize, self.filling = pressurize, False
         self.K, self.p_ini, self.dV_inj = float(bulk_modulus), float(initial_pressure), float(injected_volume)
         self.symmetry = [AXES[s] for s in symmetry]
@@ -83,13 +87,14 @@ class LiquidCavity(Feature):
     def setup(self, solid):
         self.solid = solid
         msh = solid.mesh_data.mesh
-        tag = solid.mesh_data.surfaces.get(self.surface)
-        if tag is None:
-            raise SceneError(f"cavity {self.name!r}: surface {self.surface!r} is not a surface group of mesh "
+        missing = [s for s in self.surfaces if s not in solid.mesh_data.surfaces]
+        if missing:
+            raise SceneError(f"cavity {self.name!r}: surface {missing[0]!r} is not a surface group of mesh "
                              f"{solid.mesh_data.source} (its surfaces: {sorted(solid.mesh_data.surfaces)})")
-        _check_closed(solid, self.surface, self.symmetry, self.name)
+        _check_closed(solid, self.surfaces, self.symmetry, self.name)
         x = solid.X + solid.u
-        volume = -ufl.inner(x, solid.current_normal_area()) / 3 * solid.ds(tag)
+        tags = tuple(solid.mesh_data.surfaces[s] for s in self.surfaces)
+        volume = -ufl.inner(x, solid.current_normal_area()) / 3 * solid.ds(tags)
         self.volume_form = fem.form(volume)
         self.dV_form = fem.form(ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W)))
         self.pressure = fem.Constant(msh, 0.0)
@@ -99,7 +104,7 @@ class LiquidCavity(Feature):
             raise SceneError(f"cavity {self.name!r}: the volume enclosed by {self.surface!r} is {self.V_ini:.4g}, "
                              "not positive: check the symmetry planes and that the surface faces the liquid")
         owned = solid.num_owned
-        self.wetted = np.unique(np.concatenate([d[d < owned] for d in solid.surface_dofs(self.surface)]))
+        self.wetted = np.unique(np.concatenate([d[d < owned] for s in self.surfaces for d in solid.surface_dofs(s)]))
         self.dV = fem.petsc.create_vector(self.dV_form)
         self.unknowns = np.zeros(1)
 
@@ -200,12 +205,13 @@ class Injection(Feature):
         self.factor = factor
 
 
-def _check_closed(solid, surface, symmetry, name):
-    """Every boundary edge of the wetted surface must lie on a declared symmetry plane."""
+def _check_closed(solid, surfaces, symmetry, name):
+    """Every boundary edge of the wetted surfaces must lie on a declared symmetry plane."""
     md = solid.mesh_data
     msh = md.mesh
     fdim = msh.topology.dim - 1
-    facets = md.facets(surface)
+    facets = np.unique(np.concatenate([md.facets(s) for s in surfaces]))
+    surface = surfaces[0] if len(surfaces) == 1 else surfaces
     msh.topology.create_connectivity(fdim, msh.topology.dim)
     nodes = cpp.mesh.entities_to_geometry(msh._mesh, fdim, facets, False)
     ids = np.asarray(msh.geometry.input_global_indices)[nodes]

@@ -11,8 +11,9 @@ Extensions beyond the contract (documented in README.md):
   cavity and contact: it ramps in that step and is held after it (default: the first step);
 * ``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``;
 * ``[[force]]`` with ``point`` instead of ``surface`` (the node nearest to the point);
-* ``[[cavity]] algorithm = "new" | "previous"`` and ``pressurize = true`` (fill the cavity to
-  its ``initial_pressure`` in its step: the eye brought to its IOP);
+* ``[[cavity]] algorithm = "new" | "previous"``, ``pressurize = true`` (fill the cavity to
+  its ``initial_pressure`` in its step: the eye brought to its IOP) and ``surface`` as a list
+  of surface groups (a liquid wetting several surfaces);
 * ``[[injection]]`` (``cavity``, ``volume``, ``step``): liquid added or removed in a step;
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
   ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
@@ -251,7 +252,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         name_ = t.get("name", "string", required=True)
         if name_ in cavities:
             raise t.error(f"cavity name {name_!r} is used twice")
-        surface = t.get("surface", "string", required=True)
+        surface = t.get("surface", "strings" if isinstance(t.data.get("surface"), list) else "string", required=True)
         arguments = (name_, surface, t.get("bulk_modulus", "positive", required=True),
                      t.get("initial_pressure", "number", 0.0), t.get("injected_volume", "number", 0.0),
                      t.get("symmetry", "strings", []))
@@ -262,7 +263,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         except SceneError as error:
             raise t.error(str(error)) from None
         features.append(cavities[name_])
-        surfaces_used.append((surface, where))
+        surfaces_used.extend((name, where) for name in cavities[name_].surfaces)
     for t, where in _array(data, "injection", path):
         t = _Table(t, where, {"cavity", "volume", "step"})
         cavity = t.get("cavity", "string", required=True)
