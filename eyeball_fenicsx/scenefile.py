@@ -20,7 +20,7 @@ Extensions beyond the contract (documented in README.md):
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
 * ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
   ``posterior_surface``): the eye measures written under "eye" in summary.json;
-* ``[mesh] builder = "eye" | "band"`` (meshes/eye.py, meshes/band.py).
+* ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (meshes/eye.py, band.py, buckled_eye.py).
 """
 import math
 import os
@@ -170,9 +170,9 @@ def _mesh(table: _Table, directory, comm):
             raise table.error(f"file = {given!r}: {path} does not exist (the path is relative to the scene file)")
         return load_mesh(path, comm)
     builder = table.get("builder", "string", required=False)
-    from meshes import band, block, eye, sphere_octant
+    from meshes import band, block, buckled_eye, eye, sphere_octant
     builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant,
-                "eye": eye.build_eye, "band": band.build_band}
+                "eye": eye.build_eye, "band": band.build_band, "buckled_eye": buckled_eye.build_buckled_eye}
     if builder not in builders:
         raise table.error(f"give file = \"<mesh>.msh\" or builder = one of {sorted(builders)}")
     options = {k: v for k, v in table.data.items() if k != "builder"}

@@ -1,0 +1,356 @@
+"""The buckled eye (meshes/buckled_eye.py): the eye plus an encircling band and/or a silicone tire.
+
+Runs in serial and under ``mpirun -n 2``: the meshes are built on rank 0 and distributed, every check
+is collective, and nodes are gathered on rank 0 (by their global input numbers) to compare bodies.
+A coarse eye (n_circ = 16) keeps it fast.
+"""
+import math
+import pathlib
+
+import dolfinx
+import numpy as np
+import pytest
+import ufl
+from mpi4py import MPI
+from scipy.spatial import cKDTree
+
+from eyeball_fenicsx.errors import SceneError
+from eyeball_fenicsx.mesh import built_mesh, load_mesh
+from meshes import buckled_eye, eye
+from meshes._discrete import corner_jacobians
+
+COMM = MPI.COMM_WORLD
+N_CIRC = 16
+TISSUES = {"cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule"}
+EYE_SURFACES = {"sclera_outer", "cornea_outer", "optic_nerve_side", "optic_nerve_end", "vitreous_wall",
+                "anterior_chamber_wall"}
+BAND_SURFACES = {"band_inner", "band_outer", "band_front", "band_back"}
+TIRE_SURFACES = {"tire_inner", "tire_outer", "tire_front", "tire_back"}
+GAP = buckled_eye.GAP
+# The three scenes: an encircling band alone (whole eye); a tire ring under the band in a half eye with
+# a retinal detachment under the buckle; a segmental tire (90 degrees) without band.
+ENCIRCLED = {"n_circ": N_CIRC}
+TIRED = {"n_circ": N_CIRC, "sector_deg": 180, "tire": {"width": 4.0, "height": 1.0},
+         "detachment": {"extent_deg": 15.0, "gap": 0.1}}
+SEGMENTAL = {"n_circ": N_CIRC, "tire": {"width": 4.0, "height": 1.0, "arc_deg": 90.0, "azimuth_deg": 30.0}}
+
+
+@pytest.fixture(scope="module")
+def encircled():
+    return built_mesh(buckled_eye.build_buckled_eye, COMM, **ENCIRCLED)
+
+
+@pytest.fixture(scope="module")
+def tired():
+    return built_mesh(buckled_eye.build_buckled_eye, COMM, **TIRED)
+
+
+@pytest.fixture(scope="module")
+def segmental():
+    return built_mesh(buckled_eye.build_buckled_eye, COMM, **SEGMENTAL)
+
+
+def _on_rank0(check):
+    """Evaluate ``check()`` on rank 0 and return its verdict on every rank."""
+    return COMM.bcast(check() if COMM.rank == 0 else None, root=0)
+
+
+def _gather(ids, coordinates):
+    """On rank 0: the rows of (ids, coordinates) of all ranks, each id once; None elsewhere."""
+    gathered = COMM.gather((ids, coordinates), root=0)
+    if COMM.rank != 0:
+        return None, None
+    ids = np.concatenate([g[0] for g in gathered])
+    coordinates = np.concatenate([g[1] for g in gathered])
+    key = np.sort(ids, axis=1) if ids.ndim == 2 else ids
+    _, first = np.unique(key, axis=0, return_index=True)  # ghosts come twice
+    return ids[first], coordinates[first]
+
+
+def _region_nodes(data, region):
+    """On rank 0: global input numbers and coordinates of the nodes of a region's cells."""
+    msh = data.mesh
+    dofs = msh.geometry.dofmap.array.reshape(-1, 8)[data.cells(region)].ravel()
+    return _gather(np.asarray(msh.geometry.input_global_indices)[dofs], msh.geometry.x[dofs])
+
+
+def _surface_facets(data, surface):
+    """On rank 0: the corners of a surface's facets, global numbers (count, 4) and coordinates (count, 4, 3),
+    in DOLFINx order (vertices 0, 1, 3, 2 go round the quadrilateral)."""
+    msh = data.mesh
+    msh.topology.create_connectivity(2, 3)
+    nodes = dolfinx.cpp.mesh.entities_to_geometry(msh._mesh, 2, data.facets(surface), False)
+    return _gather(np.asarray(msh.geometry.input_global_indices)[nodes], msh.geometry.x[nodes])
+
+
+def _surface_nodes(data, surface):
+    """On rank 0: the coordinates of a surface's nodes, each once."""
+    ids, corners = _surface_facets(data, surface)
+    if ids is None:
+        return None
+    _, first = np.unique(ids.ravel(), return_index=True)
+    return corners.reshape(-1, 3)[first]
+
+
+def _volume(data, region):
+    dx = ufl.dx(domain=data.mesh, subdomain_data=data.cell_tags, subdomain_id=data.regions[region])
+    return COMM.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * dx)), op=MPI.SUM)
+
+
+def _polar(points):
+    """Polar angle from the posterior pole (-z) and azimuth of points."""
+    return np.arctan2(np.linalg.norm(points[:, :2], axis=1), -points[:, 2]), np.arctan2(points[:, 1], points[:, 0])
+
+
+def _globe(data):
+    """The radius of the sclera's outer surface and the polar angle of the limbus, measured on the mesh (the
+    limbus is the front ring of "sclera_outer"); on every rank."""
+    nodes = _surface_nodes(data, "sclera_outer")
+    radii = _on_rank0(lambda: np.linalg.norm(nodes, axis=1))
+    assert np.ptp(radii) < 1e-9  # the sclera's outer surface is a sphere
+    return radii.mean(), _on_rank0(lambda: _polar(nodes)[0].max())
+
+
+def test_regions_and_surfaces(encircled, tired, segmental):
+    assert set(encircled.regions) == TISSUES | {"band"}
+    assert set(encircled.surfaces) == EYE_SURFACES | BAND_SURFACES
+    assert set(tired.regions) == TISSUES | {"tire", "band"}
+    assert set(tired.surfaces) == (EYE_SURFACES | BAND_SURFACES | TIRE_SURFACES
+                                   | {"retina_outer", "choroid_inner", "cut_0", "cut_1"})
+    # A segmental tire: no band unless asked, and the tire's two ends.
+    assert set(segmental.regions) == TISSUES | {"tire"}
+    assert set(segmental.surfaces) == EYE_SURFACES | TIRE_SURFACES | {"tire_end_0", "tire_end_1"}
+    for data in (encircled, tired, segmental):
+        for name in data.regions:
+            assert COMM.allreduce(len(data.cells(name)), op=MPI.SUM) > 0, name
+        for name in data.surfaces:
+            assert COMM.allreduce(len(data.facets(name)), op=MPI.SUM) > 0, name
+    # The band: 4 x 2 elements in the meridian, n_circ around; the whole tire ring of the half eye
+    # 6 x 3 (elements of about the band's size) over 8 sectors; the segmental tire 15 + 3 x 22.5 + 7.5 degrees.
+    eye_cells = eye.eye_geometry(n_circ=N_CIRC).info["hexahedra"]  # the eye, unchanged
+    assert encircled.mesh.topology.index_map(3).size_global == eye_cells + 4 * 2 * N_CIRC
+    assert tired.mesh.topology.index_map(3).size_global == eye_cells // 2 + 6 * 3 * 8 + 4 * 2 * 8
+    assert segmental.mesh.topology.index_map(3).size_global == eye_cells + 6 * 3 * 5
+
+
+@pytest.mark.parametrize("model", ["encircled", "tired", "segmental"])
+def test_elements_are_well_shaped(model, request):
+    data = request.getfixturevalue(model)
+    msh = data.mesh
+    cells = msh.geometry.dofmap.array.reshape(-1, 8)[:, [0, 1, 3, 2, 4, 5, 7, 6]]  # to gmsh order
+    det, scaled = corner_jacobians(msh.geometry.x, cells)
+    assert COMM.allreduce(det.min(), op=MPI.MIN) > 0.0
+    assert COMM.allreduce(scaled.min(), op=MPI.MIN) > 0.45  # the eye's zonule, ~0.5
+    for body in ("band", "tire"):
+        if body in data.regions:
+            worst = scaled[data.cells(body)].min(initial=1.0)
+            assert COMM.allreduce(worst, op=MPI.MIN) > 0.95, body  # nearly right-angled
+
+
+def _to_polyline(points, line):
+    """Distances from 2D points to a polyline (shape (k, 2))."""
+    start, step = line[:-1], line[1:] - line[:-1]
+    t = np.clip(np.einsum("psk,sk->ps", points[:, None] - start, step) / np.sum(step**2, axis=1), 0.0, 1.0)
+    return np.linalg.norm(points[:, None] - (start + t[..., None] * step), axis=2).min(axis=1)
+
+
+def _clearance(data, inner, outer):
+    """Distances from the nodes of surface ``inner`` to surface ``outer``, in the meridional planes of the
+    node azimuths both have (the nodes of the two surfaces are on the same azimuths, so the nearest point is
+    on the meridional edges there): (smallest, largest) over the nodes, and the smallest distance between
+    the two surfaces' nodes; on every rank."""
+    nodes = _surface_nodes(data, inner)
+    outer_nodes = _surface_nodes(data, outer)
+
+    def distances():
+        theta, phi = _polar(nodes)
+        outer_theta, outer_phi = _polar(outer_nodes)
+        result = []
+        for azimuth in np.unique(np.round(phi, 9)):
+            here = np.abs(phi - azimuth) < 1e-9
+            line = np.abs(outer_phi - azimuth) < 1e-9
+            if line.sum() < 2:
+                continue  # e.g. the ends of a segmental tire, between the eye's azimuths
+            order = np.argsort(outer_theta[line])
+            section = np.column_stack([np.linalg.norm(outer_nodes[line][:, :2], axis=1), outer_nodes[line][:, 2]])
+            points = np.column_stack([np.linalg.norm(nodes[here][:, :2], axis=1), nodes[here][:, 2]])
+            result.append(_to_polyline(points, section[order]))
+        result = np.concatenate(result)
+        to_nodes, _ = cKDTree(outer_nodes).query(nodes)
+        return result.min(), result.max(), to_nodes.min()
+    return _on_rank0(distances)
+
+
+@pytest.mark.parametrize("model, pairs", [
+    ("encircled", [("band", "sclera_outer")]),
+    ("tired", [("band", "tire_outer"), ("tire", "sclera_outer")]),
+    ("segmental", [("tire", "sclera_outer")]),
+])
+def test_buckle_shares_no_node_with_the_eye(model, pairs, request):
+    data = request.getfixturevalue(model)
+    eye_nodes = [_region_nodes(data, tissue)[0] for tissue in TISSUES]
+    for body, under in pairs:
+        body_nodes, _ = _region_nodes(data, body)
+        assert _on_rank0(lambda: not np.intersect1d(body_nodes, np.concatenate(eye_nodes)).size)
+        # The body's inner surface is `gap` clear of the surface under it: its nodes are that far from the
+        # facets under them, plus the sag of the facets' meridional chords (< 0.8^2 / 8 R = 0.007 mm), and no
+        # node of the other surface is nearer.
+        nearest, farthest, node_to_node = _clearance(data, f"{body}_inner", under)
+        assert GAP - 1e-9 < nearest and farthest < GAP + 0.007
+        assert GAP - 1e-9 < node_to_node < math.hypot(GAP, 0.5)  # meridional offset < half an element
+    if model == "tired":
+        band, _ = _region_nodes(data, "band")
+        tire, _ = _region_nodes(data, "tire")
+        assert _on_rank0(lambda: not np.intersect1d(band, tire).size)
+
+
+def test_band_volume_is_the_spherical_zone(encircled, tired):
+    """The band is the shell zone R1 <= r <= R2, theta1 <= theta <= theta2 (polar angle from the posterior
+    pole), whose volume is the integral of r^2 sin(theta) over it:
+
+        V = (2 pi / 3) (R2^3 - R1^3) (cos theta1 - cos theta2),
+
+    the difference of spherical sectors (2 pi / 3) r^3 (1 - cos theta) (CRC Standard Mathematical Tables,
+    "spherical sector"); with latitudes phi = theta - pi / 2 it is the (sin phi2 - sin phi1) form. The mesh
+    replaces arcs by chords: a ring of n chords has the volume of the smooth ring times sin(d)/d, d = 2 pi / n
+    (each hexahedron between azimuths a and a + d has the volume sin(d) times the integral of rho over its
+    section, exactly), and the meridional chords of angle e add a relative error of about e^2 / 6."""
+    for data, parameters, fraction in ((encircled, ENCIRCLED, 1.0), (tired, TIRED, 0.5)):
+        layout = buckled_eye.buckle_layout(**parameters)
+        band = layout.bodies["band"]
+        R1, R2 = band.inner_radius, band.outer_radius
+        theta1, theta2 = band.theta
+        exact = 2 * math.pi / 3 * (R2**3 - R1**3) * (math.cos(theta1) - math.cos(theta2)) * fraction
+        assert band.volume() == pytest.approx(exact, rel=1e-12)  # the wedge holds its part of the ring
+        # R1 and R2 are the sclera's measured radius + gap (+ tire height + gap) and + thickness
+        radius, _ = _globe(data)
+        below = GAP if "tire" not in parameters else 2 * GAP + parameters["tire"]["height"]
+        assert R1 == pytest.approx(radius + below, abs=1e-9)
+        assert R2 - R1 == pytest.approx(buckled_eye.BAND_THICKNESS, abs=1e-12)
+        d, e = 2 * math.pi / N_CIRC, (theta2 - theta1) / 4
+        volume = _volume(data, "band")
+        assert volume / (exact * math.sin(d) / d) == pytest.approx(1.0, abs=e**2 / 6 * 1.5)
+        assert volume == pytest.approx(exact, rel=(d**2 + e**2) / 6 * 1.05)  # 2.6 % at n_circ = 16
+
+
+@pytest.mark.parametrize("model", ["encircled", "tired"])
+def test_band_position_and_width(model, request):
+    data = request.getfixturevalue(model)
+    radius, limbus = _globe(data)
+    nodes = _surface_nodes(data, "band_inner")
+    measured = _on_rank0(lambda: _polar(nodes)[0])
+    centre = 0.5 * (measured.min() + measured.max())
+    inner_radius = radius + (GAP if model == "encircled" else 2 * GAP + 1.0)
+    # Behind the limbus by band_position, measured along the sclera's outer surface, within half an element
+    # of the band (exact by construction); its width measured on its inner surface.
+    position = radius * (limbus - centre)
+    half_element = 0.5 * buckled_eye.BAND_WIDTH / 4
+    assert position == pytest.approx(buckled_eye.BAND_POSITION, abs=half_element)
+    assert position == pytest.approx(buckled_eye.BAND_POSITION, abs=1e-9)
+    assert inner_radius * (measured.max() - measured.min()) == pytest.approx(buckled_eye.BAND_WIDTH, abs=1e-9)
+    # The default sits at about the equator (12.95 mm behind the limbus in this eye), 11.25-13.75 mm behind it.
+    assert abs(centre - math.pi / 2) < math.radians(3.0)
+
+
+def test_segmental_tire_extent(segmental):
+    nodes = _surface_nodes(segmental, "tire_outer")
+    azimuths = _on_rank0(lambda: np.degrees(_polar(nodes)[1]))
+    assert azimuths.min() == pytest.approx(30.0 - 45.0, abs=1e-9)
+    assert azimuths.max() == pytest.approx(30.0 + 45.0, abs=1e-9)
+    area = COMM.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ufl.ds(
+        domain=segmental.mesh, subdomain_data=segmental.facet_tags,
+        subdomain_id=segmental.surfaces["tire_end_0"]))), op=MPI.SUM)
+    # The end face: a sector of an annulus, the tire's section, in 6 meridional chords.
+    tire = buckled_eye.buckle_layout(**SEGMENTAL).bodies["tire"]
+    angle = (tire.theta[1] - tire.theta[0]) / 6
+    assert area == pytest.approx(0.5 * (tire.outer_radius**2 - tire.inner_radius**2) * 6 * math.sin(angle), rel=1e-9)
+
+
+@pytest.mark.parametrize("model, parameters, body, count", [
+    ("encircled", ENCIRCLED, "band", 8), ("tired", TIRED, "tire", 4), ("segmental", SEGMENTAL, "tire", 8)])
+def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, request):
+    data = request.getfixturevalue(model)
+    sutures = buckled_eye.suture_points(parameters)
+    assert len(sutures) == count  # 4 azimuths over the whole eye, 2 of them in the half eye; 2 sutures each
+    layout = buckled_eye.buckle_layout(**parameters)
+    widest = max(layout.globe_radius * (b.theta[1] - b.theta[0]) for b in layout.bodies.values())
+    radius, _ = _globe(data)
+    sclera = _surface_nodes(data, "sclera_outer")
+    outer = _surface_nodes(data, f"{body}_outer")
+    sides = {side: _surface_nodes(data, f"{body}_{side}") for side in ("front", "back")}
+    for suture in sutures:
+        assert suture["sclera_surface"] == "sclera_outer" and suture["buckle_surface"] == f"{body}_outer"
+        bite, knot = np.array(suture["sclera"]), np.array(suture["buckle"])
+        assert np.linalg.norm(bite) == pytest.approx(radius, abs=1e-9)  # on the sclera's outer surface
+
+        def distances():
+            return (cKDTree(sclera).query(bite)[0], cKDTree(outer).query(knot)[0],
+                    cKDTree(sides[suture["side"]]).query(knot)[0])
+        to_sclera, to_outer, to_side = _on_rank0(distances)
+        assert to_sclera < 0.45  # within half an element of a node of "sclera_outer"
+        assert to_outer < 1e-9 and to_side < 1e-9  # a node of the top edge on the suture's side
+        # The bite is suture_width / 2 from the centre line along the meridian, outside the buckle.
+        theta, phi = _polar(bite[None])
+        arc = radius * (theta[0] - layout.centre_theta)
+        assert abs(arc) == pytest.approx(widest / 2 + buckled_eye.SUTURE_MARGIN, abs=1e-9)
+        assert (arc > 0) == (suture["side"] == "front")
+        assert _polar(knot[None])[1][0] == pytest.approx(phi[0], abs=1e-12)
+    wider = buckled_eye.suture_points(parameters, count=2, suture_width=8.0)
+    # Two azimuths (90 and 270 degrees for the ring; 7.5 and 52.5, moved to the nodes at 0 and 45, on the
+    # segmental tire), of which the half eye holds one.
+    assert len(wider) == (2 if model == "tired" else 4)
+    assert all(abs(abs(radius * (_polar(np.array([s["sclera"]]))[0][0] - layout.centre_theta)) - 4.0) < 1e-9
+               for s in wider)
+
+
+def test_cavity_walls_are_closed(encircled, tired):
+    for surface in ("vitreous_wall", "anterior_chamber_wall"):
+        for data, whole in ((encircled, True), (tired, False)):
+            ids, corners = _surface_facets(data, surface)
+
+            def check():
+                pairs = [(0, 1), (1, 3), (3, 2), (2, 0)]
+                edges = np.concatenate([np.sort(ids[:, list(p)], axis=1) for p in pairs])
+                middles = np.concatenate([corners[:, list(p)].mean(axis=1) for p in pairs])
+                _, first, counts = np.unique(edges, axis=0, return_index=True, return_counts=True)
+                open_ = counts == 1
+                if whole:
+                    return bool(np.all(counts == 2))
+                return bool(np.all(counts[~open_] == 2) and np.all(np.abs(middles[first][open_][:, 1]) < 1e-9))
+            assert _on_rank0(check), surface
+
+
+@pytest.mark.parametrize("options, fragment", [
+    ({"band_position": 30.0}, "must rest on the sclera"),
+    ({"band_position": 0.5}, "must rest on the sclera"),
+    ({"tire": {"width": 2.0}}, "must not be wider than the tire"),
+    ({"tire": {"arc_deg": 90.0, "azimuth_deg": 45.0}, "sector_deg": 180, "n_circ": 16}, "centred on one"),
+    ({"tire": {"arc_deg": 400.0}}, "arc_deg must be at most 360"),
+    ({"tire": {"depth": 1.0}}, "tire must be None or a table"),
+    ({"band": False}, "there must be a tire"),
+    ({"gap": 0.0}, "gap must be a positive number"),
+    ({"n_band_width": 2.5}, "n_band_width must be a positive integer"),
+    ({"iop": 15}, "unknown parameter"),
+    ({"n_circ": 18}, "n_circ must be a multiple of 4"),
+])
+def test_rejects_bad_parameters(options, fragment):
+    with pytest.raises(SceneError, match=fragment):
+        buckled_eye.buckle_layout(**options)
+
+
+def test_rejects_bad_sutures_and_reports_on_every_rank():
+    with pytest.raises(SceneError, match="must exceed the buckle's footprint"):
+        buckled_eye.suture_points({}, suture_width=2.0)
+    with pytest.raises(SceneError, match="must rest on the sclera"):
+        built_mesh(buckled_eye.build_buckled_eye, COMM, n_circ=N_CIRC, band_position=40.0)
+
+
+def test_cli(tmp_path):
+    folder = pathlib.Path(COMM.bcast(str(tmp_path), root=0))
+    path = folder / "buckled.msh"
+    buckled_eye.main(["--out", str(path), "--n-circ", "16", "--sector-deg", "180", "--tire", "4", "1", "90", "180",
+                      "--band", "--detachment", "15", "0.1"])
+    data = load_mesh(path)
+    assert set(data.regions) == TISSUES | {"tire", "band"}
+    assert set(data.surfaces) == (EYE_SURFACES | BAND_SURFACES | TIRE_SURFACES
+                                  | {"tire_end_0", "retina_outer", "choroid_inner", "cut_0", "cut_1"})
