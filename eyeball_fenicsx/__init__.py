@@ -1,11 +1,12 @@
 """eyeball-fenicsx: finite-element simulation of scleral buckling surgery on FEniCSx."""
+from .contact import ContactPair, RigidContact
 from .errors import ConvergenceError, SceneError
 from .loads import Dirichlet, NodalForce, Pressure
 from .materials import LinearElastic, MooneyRivlin, NeoHooke
 from .scene import Scene, Step
 from .solver import SolverSettings
 
-__all__ = ["ConvergenceError", "SceneError", "Dirichlet", "NodalForce", "Pressure", "LinearElastic",
+__all__ = ["ContactPair", "RigidContact", "ConvergenceError", "SceneError", "Dirichlet", "NodalForce", "Pressure", "LinearElastic",
            "MooneyRivlin", "NeoHooke", "Scene", "Step", "SolverSettings"]
 
 # A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives

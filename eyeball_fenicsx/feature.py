@@ -44,6 +44,11 @@ class Feature:
         goes here. Return True if ``coupling()`` changed, so the matrix is preallocated anew."""
         return False
 
+    def tangent_outdated(self):
+        """Collective: True if the last tangent no longer fits the state (a contact active set
+        changed), so Newton must not reuse its factorization."""
+        return False
+
     def coupling(self):
         """(rows, cols): global indices of the matrix entries ``add_to_jacobian`` may touch
         beyond the mesh's own pattern, or None. Rows may be owned by any rank."""

@@ -163,6 +163,13 @@ class Problem:
             bl.set(0.0)
         assemble_vector(self.b_w, self.R_form)
         self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.custom:  # contact, sutures and nodal forces act on constrained nodes too
+            b = self.b.duplicate()
+            b.array[: self.n_owned] = self.b_w.array_r[: self.n_owned]
+            for f in self.custom:
+                f.add_to_residual(b)
+            b.assemble()
+            self.b_w.array[: self.n_owned] = b.array_r[: self.n_owned]
         return self.b_w
 
     def F(self, snes, x, b):

@@ -20,7 +20,11 @@ Extensions beyond the contract (documented in README.md):
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
 * ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
   ``posterior_surface``): the eye measures written under "eye" in summary.json;
-* ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (meshes/eye.py, band.py, buckled_eye.py).
+* ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (meshes/eye.py, band.py, buckled_eye.py);
+* ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``tension`` or ``shortening``,
+  ``stiffness``, ``step``): sutures generated from the buckled eye's geometry, each tying a
+  sclera bite ``width / 2`` from the buckle's centre line to the buckle's top edge; they are
+  tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``).
 """
 import math
 import os
@@ -40,7 +44,7 @@ from .solver import SolverSettings
 from .sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
-             "solver", "step", "injection", "suture", "band", "eye"}
+             "solver", "step", "injection", "suture", "band", "eye", "buckle_sutures"}
 
 
 class _Table:
@@ -89,6 +93,11 @@ class _Table:
         elif kind == "bool":
             if not isinstance(value, bool):
                 raise self.error(f"{key} must be true or false, got {value!r}")
+        elif kind == "numbers":
+            if (not isinstance(value, list) or not value
+                    or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value)):
+                raise self.error(f"{key} must be a list of finite numbers, got {value!r}")
+            value = [float(v) for v in value]
         elif kind == "strings":
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 raise self.error(f"{key} must be a list of strings, got {value!r}")
@@ -291,6 +300,25 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         features.append(BandTightening(region, t.get("reduction", "number", required=True),
                                        center=t.get("center", "vector", [0.0, 0.0, 0.0]),
                                        axis=t.get("axis", "vector", [0.0, 0.0, 1.0]), step=step_of(t)))
+    if "buckle_sutures" in data:
+        t = _Table(data["buckle_sutures"], f"{path}: [buckle_sutures]",
+                   {"count", "width", "azimuths", "tension", "shortening", "stiffness", "step"})
+        mesh = data.get("mesh") if isinstance(data.get("mesh"), dict) else {}
+        if mesh.get("builder") != "buckled_eye":
+            raise t.error('needs [mesh] builder = "buckled_eye" (the sutures follow its buckle)')
+        from meshes.buckled_eye import suture_points
+        parameters = {k: v for k, v in mesh.items() if k != "builder"}
+        azimuths = t.get("azimuths", "numbers") if t.has("azimuths") else None
+        try:
+            points = suture_points(parameters, count=t.get("count", "integer", 4), suture_width=t.get("width", "positive"),
+                                   azimuth_deg=azimuths)
+            for point in points:
+                features.append(Suture(point["name"], point["sclera"], point["buckle"],
+                                       tension=t.get("tension", "nonnegative"), shortening=t.get("shortening", "nonnegative"),
+                                       stiffness=t.get("stiffness", "positive"), first_surface=point["sclera_surface"],
+                                       second_surface=point["buckle_surface"], bilateral=True, step=step_of(t)))
+        except (SceneError, TypeError) as error:
+            raise t.error(str(error)) from None
     if "eye" in data:
         t = _Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
                                                    "posterior_surface"})

@@ -3,6 +3,22 @@
 PETSc options live under the prefix ``eye_``: pass ``-eye_snes_monitor``,
 ``-eye_snes_linesearch_type basic``, ``-eye_mat_mumps_icntl_4 2`` ... on the command line.
 Our defaults are set only where the user gave nothing.
+
+The numeric factorization is almost all of the cost of a Newton iteration
+(``benchmarks/sphere_scaling.py``), so the solver spends as few as it can, without changing
+the converged answer (the residual tolerances decide it, as before):
+
+* symmetric tangent -> MUMPS LDL^T (``pc_type cholesky``): half the flops of LU. Used when every
+  feature with hand-assembled terms declares ``symmetric_tangent = True`` and the assembled
+  matrix is symmetric to round-off, checked at the first Jacobian of every increment (a
+  follower pressure on a surface with free edges is not);
+* factorization reuse (chord steps): after a Newton step that cut the residual by at least
+  ``SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
+  assembling and factorizing a new tangent; a reused step that contracts less ends the reuse.
+  A chord step converges linearly, so it would stop just below the tolerance, where Newton's
+  quadratic last step lands far below it: after a reused factorization, convergence needs a
+  residual ``POLISH`` times below the tolerance (or a chord step that no longer contracts, at
+  round-off), which costs a triangular solve or two and keeps the answer Newton's.
 """
 import dataclasses
 import time
@@ -21,10 +37,14 @@ DEFAULT_OPTIONS = {
     "snes_stol": 0.0,
     "snes_max_it": 12,
     "ksp_type": "preonly",
-    "pc_type": "lu",
     "pc_factor_mat_solver_type": "mumps",
     "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
 }
+POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
+_CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
+_SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
+_SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
+_REASON = PETSc.SNES.ConvergedReason
 _REASONS = {value: name for name, value in vars(PETSc.SNES.ConvergedReason).items() if not name.startswith("_")}
 
 
@@ -37,8 +57,11 @@ class SolverSettings:
         max_cutbacks: the smallest increment is the initial one halved this many times;
             an increment that fails at that size ends the run.
         growth: factor by which the increment grows after an easy one.
-        easy_iterations: an increment that took at most this many Newton iterations is easy.
+        easy_iterations: an increment that factorized at most this many tangents is easy (with
+            factorization reuse, the cheap chord steps do not count).
         predictor: extrapolate the previous increment to start Newton (secant predictor).
+        reuse_contraction: reuse the factorization for the next Newton step after a step that
+            multiplied the residual norm by at most this factor (0: a new tangent every step).
     """
 
     increments: int = 10
@@ -46,6 +69,7 @@ class SolverSettings:
     growth: float = 2.0
     easy_iterations: int = 4
     predictor: bool = True
+    reuse_contraction: float = 0.1
 
     def __post_init__(self):
         if isinstance(self.increments, bool) or not isinstance(self.increments, int) or self.increments < 1:
@@ -61,25 +85,92 @@ class NewtonSolver:
         for key, value in DEFAULT_OPTIONS.items():
             if not opts.hasName(prefix + key):
                 opts[prefix + key] = value
+        self.choose_factorization = not opts.hasName(prefix + "pc_type")  # else the user's
+        self.divergence = PETSc.Options(prefix).getReal("snes_divergence_tolerance", 1e4)
+        self.reuse_contraction = SolverSettings.reuse_contraction
+        self.reused = False  # the last Newton step reused a factorization
         self.snes = snes = PETSc.SNES().create(problem.comm)
         snes.setOptionsPrefix(prefix)
         snes.setFunction(problem.F, problem.b)
-        snes.setJacobian(problem.J, problem.A)
-        snes.setFromOptions()
-        snes.getKSP().setFromOptions()
+        snes.setJacobian(self._jacobian, problem.A)
+        snes.setConvergenceTest(self._converged)
+        snes.getKSP().getPC().setType("lu")
+        self._set_from_options()
         self.residual_norms = []
+        self.factorizations = 0
         snes.setMonitor(lambda snes, its, norm: self.residual_norms.append(norm))
+
+    def _set_from_options(self):
+        """Read the options; ``snes_max_it`` counts the steps with a new tangent, and the chord
+        steps come on top (each cuts the residual by 1 / reuse_contraction, so they are few)."""
+        self.snes.setFromOptions()
+        self.snes.getKSP().setFromOptions()
+        self.max_tangents = self.snes.getTolerances()[3]
+        self.snes.setTolerances(max_it=self.max_tangents + _CHORD_STEPS)
 
     def update_pattern(self):
         """Give the features their per-increment update; follow a new matrix if one was made."""
         if self.problem.update_pattern():
-            self.snes.setJacobian(self.problem.J, self.problem.A)
+            self.snes.setJacobian(self._jacobian, self.problem.A)
             self.snes.getKSP().reset()
-            self.snes.setFromOptions()
+            self._set_from_options()
+
+    def _jacobian(self, snes, x, A, P):
+        """Assemble a new tangent, or leave A untouched so that the KSP keeps its factorization
+        (PCSetUp factorizes only a matrix whose state changed)."""
+        norms = self.residual_norms
+        # a tangent whose active set (contact) changed is never reused; the list keeps the
+        # features' collective calls aligned across ranks
+        self.reused = (snes.getIterationNumber() > 0 and norms[-1] <= self.reuse_contraction * norms[-2]
+                       and not any([f.tangent_outdated() for f in self.problem.features]))
+        if self.reused:
+            return
+        self.problem.J(snes, x, A, P)
+        self.factorizations += 1
+        self.tangents += 1
+        if snes.getIterationNumber() == 0 and self.choose_factorization:
+            self._set_factorization("cholesky" if self._symmetric(A) else "lu")
+
+    def _converged(self, snes, its, norms):
+        """PETSc's default test (SNESConvergedDefault), POLISH times stricter after a chord
+        step that still contracted (see the module docstring); at most ``max_tangents``
+        steps with a new tangent."""
+        xnorm, step, fnorm = norms
+        rtol, atol, stol, _ = snes.getTolerances()
+        if its == 0:
+            self.initial_norm = fnorm
+        if not np.isfinite(fnorm):
+            return _REASON.DIVERGED_FNORM_NAN
+        contracting = its and fnorm <= self.reuse_contraction * self.residual_norms[-2]
+        polish = POLISH if self.reused and contracting else 1.0
+        if fnorm < polish * atol:
+            return _REASON.CONVERGED_FNORM_ABS
+        if its and fnorm <= polish * rtol * self.initial_norm:
+            return _REASON.CONVERGED_FNORM_RELATIVE
+        if its and step < stol * xnorm:
+            return _REASON.CONVERGED_SNORM_RELATIVE
+        if its and 0 < self.divergence and fnorm > self.divergence * self.initial_norm:
+            return _REASON.DIVERGED_DTOL
+        if self.tangents >= self.max_tangents and not contracting:  # the next step needs a new one
+            return _REASON.DIVERGED_MAX_IT
+        return _REASON.ITERATING
+
+    def _symmetric(self, A):
+        with _SYMMETRY_CHECK:
+            declared = all(getattr(f, "symmetric_tangent", not (f.adds_to_jacobian or f.num_unknowns))
+                           for f in self.problem.features)
+            return declared and A.isSymmetric(_SYMMETRY_TOLERANCE * A.norm(PETSc.NormType.INFINITY))
+
+    def _set_factorization(self, pc_type):
+        pc = self.snes.getKSP().getPC()
+        if pc.getType() != pc_type:
+            pc.setType(pc_type)  # drops the old factorization and its symbolic analysis
+            pc.setFromOptions()
 
     def solve(self, x):
         """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
         self.residual_norms = []
+        self.tangents = 0
         self.problem.inverted = None
         self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
@@ -101,6 +192,7 @@ class Increment:
     newton_iterations: int
     residual_norm: float
     wall_s: float
+    factorizations: int  # new tangents factorized; the other iterations reused one
 
 
 def run_step(problem, newton, settings, step_index, step_name, increments, log):
@@ -116,26 +208,28 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
     t, dt, dt_prev = 0.0, 1.0 / increments, None
     smallest, done = 1.0 / increments / 2**settings.max_cutbacks, []
     use_predictor = settings.predictor
+    newton.reuse_contraction = settings.reuse_contraction
     while t < 1.0 - 1e-12:
         dt = min(dt, 1.0 - t)
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
         if use_predictor and x_prev is not None:
             x.axpy(dt / dt_prev, x_old - x_prev)
-        start = time.perf_counter()
+        start, factorized = time.perf_counter(), newton.factorizations
         newton.update_pattern()
         converged, its, norm, reason = newton.solve(x)
-        wall = time.perf_counter() - start
+        wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
         if converged:
             t += dt
-            done.append(Increment(t, its, norm, wall))
-            log(f"step {step_name}: load factor {t:.4f}  Newton iterations {its:2d}  residual {norm:.2e}  {wall:.2f} s")
+            done.append(Increment(t, its, norm, wall, factorized))
+            log(f"step {step_name}: load factor {t:.4f}  Newton iterations {its:2d} ({factorized} factorized)  "
+                f"residual {norm:.2e}  {wall:.2f} s")
             if x_prev is None:
                 x_prev = x.duplicate()
             x_old.copy(x_prev)
             dt_prev = dt
             use_predictor = settings.predictor
-            if its <= settings.easy_iterations:
+            if factorized <= settings.easy_iterations:
                 dt *= settings.growth
             continue
         x_old.copy(x)

@@ -10,6 +10,10 @@ string direction e = (x_b - x_a) / l at its two end nodes. It derives from a pot
 Its consistent tangent on the two nodes is +-[dT/dl e e^T + T/l (I - e e^T)]. The second
 end may instead be a fixed point in space (``anchored=True``): the surgeon's hand.
 
+A suture tied around a buckle holds it both ways (``bilateral=True``, the seed's constrained
+suture points): it also resists shortening, T = k (l - l_rest) of either sign, so the
+buckle cannot float off or slide on the sclera before contact holds it.
+
 Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E about
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
 """
@@ -32,14 +36,16 @@ class Suture(Feature):
         stiffness: k of the string for shortening (default: SUTURE_EA / initial length).
         first_surface, second_surface: surfaces to pick the nodes from.
         anchored: the second end is a fixed point in space, not a node.
+        bilateral: the string also pushes (a loop tied around a buckle), see the module docstring.
     """
 
     section = "sutures"
     adds_to_residual = True
     adds_to_jacobian = True
+    symmetric_tangent = True  # the Hessian of the string's potential
 
     def __init__(self, name, first, second, tension=None, shortening=None, stiffness=None,
-                 first_surface=None, second_surface=None, anchored=False, step=0):
+                 first_surface=None, second_surface=None, anchored=False, bilateral=False, step=0):
         if (tension is None) == (shortening is None):
             raise SceneError(f"suture {name!r}: give exactly one of tension or shortening")
         for key, value in (("tension", tension), ("shortening", shortening), ("stiffness", stiffness)):
@@ -49,7 +55,7 @@ class Suture(Feature):
         self.name, self.step = name, step
         self.first_point, self.second_point = np.asarray(first, float), np.asarray(second, float)
         self.tension, self.shortening, self.stiffness = tension, shortening, stiffness
-        self.surfaces, self.anchored = (first_surface, second_surface), anchored
+        self.surfaces, self.anchored, self.bilateral = (first_surface, second_surface), anchored, bilateral
         self.factor = 0.0
 
     def setup(self, solid):
@@ -76,7 +82,9 @@ class Suture(Feature):
             self.force, self.slope = self.factor * self.tension, 0.0
         else:
             stretch = self.length - (self.initial_length - self.factor * self.shortening)
-            self.force, self.slope = (self.stiffness * stretch, self.stiffness) if stretch > 0 else (0.0, 0.0)
+            # taut from its rest length on: a string tied at rest already holds what it ties
+            taut = stretch >= 0 or self.bilateral
+            self.force, self.slope = (self.stiffness * stretch, self.stiffness) if taut else (0.0, 0.0)
 
     def _block(self):
         e = self.direction

@@ -13,6 +13,8 @@ DEMOS = {
     "thick_sphere.py": ({}, [("error", 0.015)]),
     # liquid-filled thin sphere through the pressure maximum: ~0.1% of the peak pressure
     "liquid_sphere.py": ({}, [("error", 0.005)]),
+    # rigid sphere on an incompressible block: Hertz F = 16/3 mu R^1/2 d^3/2 within 3%
+    "hertz_indentation.py": ({}, [("error", 0.03)]),
     # the eye filled to 15 mmHg; after injecting and withdrawing 60 microlitres an elastic
     # eye is back at its IOP and axial length (to the solver's tolerance)
     "eye_at_rest.py": ({"EYE_N_CIRC": "16"}, [("iop_error", 0.01), ("back_to_rest", 1e-6)]),

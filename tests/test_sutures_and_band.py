@@ -17,8 +17,10 @@ SYMMETRY = [ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}), ef.D
 
 
 def pulled_block(block_mesh, sutures):
+    # plain Newton (no factorization reuse), so that the iterations show the tangent's quality
     scene = ef.Scene("sutured", block_mesh((2, 1, 1)), {"solid": ef.MooneyRivlin(C)}, features=SYMMETRY + sutures,
-                     probes={"corner": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
+                     probes={"corner": [1.0, 1.0, 1.0]},
+                     solver=ef.SolverSettings(increments=2, reuse_contraction=0.0))
     return scene, scene.run()["steps"][-1]
 
 
@@ -84,3 +86,18 @@ def test_free_band_shrinks_by_the_reduction():
     report = final["bands"]["band"]
     assert report["circumference"] == pytest.approx(report["initial_circumference"] - band.reduction, rel=1e-4)
     assert R + t / 2 + final["probes"]["mid"][0] == pytest.approx(0.9 * (R + t / 2), rel=1e-3)
+
+
+def test_bilateral_sutures_also_push(block_mesh):
+    """A total force F pulls the face x = 1 toward far anchors: four bilateral strings
+    (k = EA / L each, sutures.SUTURE_EA = 40) get shorter and push back, so
+    F = P(1 + u) + 4 k u with P the uniaxial nominal stress; a one-way string would go slack."""
+    L, F = 1000.0, 0.3
+    k = 40.0 / L
+    u = brentq(lambda u: uniaxial_nominal_stress(1 + u, C) + 4 * k * u - F, 0.0, 1.0)
+    lateral = (1 + u) ** -0.5
+    sutures = [Suture(f"s{i}", corner, [1.0 + L, corner[1] * lateral, corner[2] * lateral], shortening=0.0,
+                      anchored=True, bilateral=True) for i, corner in enumerate(CORNERS)]
+    _, final = pulled_block(block_mesh, sutures + [ef.NodalForce([F, 0.0, 0.0], surface="x1")])
+    assert final["probes"]["corner"][0] == pytest.approx(u, rel=1e-5)
+    assert final["sutures"]["s0"]["tension"] == pytest.approx(-k * u, rel=1e-4)

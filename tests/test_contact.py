@@ -1,0 +1,293 @@
+"""Node-to-segment penalty contact against finite differences and closed forms."""
+import gmsh
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import eyeball_fenicsx as ef
+from eyeball_fenicsx.contact import (Cylinder, ContactPair, Quad, RigidContact, Sphere, Triangle, candidate_pairs,
+                                     node_to_segment, normal_law)
+from eyeball_fenicsx.mesh import built_mesh
+from meshes._discrete import HEXAHEDRON, QUADRANGLE, boundary_quads, hex_grid
+
+_SIDES = {"x0": "u-", "x1": "u+", "y0": "v-", "y1": "v+", "z0": "w-", "z1": "w+"}
+
+
+def build_blocks(blocks):
+    """gmsh model of separate boxes of hexahedra (rank 0, gmsh initialized).
+
+    Args:
+        blocks: ``[(region, xs, ys, zs), ...]``, the node coordinates along each axis of each
+            box; surfaces ``"<region>_x0"`` (the face x = xs[0]) ... ``"<region>_z1"``.
+    """
+    gmsh.model.add("blocks")
+    node, element = 1, 1
+    for volume, (region, *axes) in enumerate(blocks, start=1):
+        axes = [np.asarray(a, dtype=float) for a in axes]
+        nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        hexes = hex_grid(np.arange(len(nodes)).reshape([len(a) for a in axes]))
+        surfaces = [(100 * volume + i, f"{region}_{name}", boundary_quads(hexes, side))
+                    for i, (name, side) in enumerate(_SIDES.items())]
+        for tag, _, _ in surfaces:
+            gmsh.model.addDiscreteEntity(2, tag)
+        gmsh.model.addDiscreteEntity(3, volume, [tag for tag, _, _ in surfaces])
+        gmsh.model.mesh.addNodes(3, volume, np.arange(node, node + len(nodes)), nodes.ravel())
+        hexes = hexes.reshape(-1, 8) + node
+        gmsh.model.mesh.addElementsByType(volume, HEXAHEDRON, np.arange(element, element + len(hexes)), hexes.ravel())
+        element += len(hexes)
+        gmsh.model.addPhysicalGroup(3, [volume], volume)
+        gmsh.model.setPhysicalName(3, volume, region)
+        for tag, name, quads in surfaces:
+            gmsh.model.mesh.addElementsByType(tag, QUADRANGLE, np.arange(element, element + len(quads)),
+                                              (quads + node).ravel())
+            element += len(quads)
+            gmsh.model.addPhysicalGroup(2, [tag], tag)
+            gmsh.model.setPhysicalName(2, tag, name)
+        node += len(nodes)
+    gmsh.model.mesh.reclassifyNodes()
+
+
+def blocks_mesh(*blocks, comm=MPI.COMM_WORLD):
+    """One distributed mesh of several boxes, see :func:`build_blocks`."""
+    return built_mesh(build_blocks, comm, blocks=list(blocks))
+
+
+def graded(length, fine, n_fine, n_coarse):
+    """Nodes on [0, length]: n_fine equal cells on [0, fine], then n_coarse cells growing
+    geometrically from that size to fill the rest."""
+    h = fine / n_fine
+    lo, hi = 1.0, 10.0
+    for _ in range(100):  # bisection for the growth ratio q: h (q + q^2 + ... + q^n) = length - fine
+        q = 0.5 * (lo + hi)
+        lo, hi = (lo, q) if h * q * (q**n_coarse - 1) / (q - 1) > length - fine else (q, hi)
+    coarse = fine + h * np.cumsum(q ** np.arange(1, n_coarse + 1))
+    return np.concatenate([np.linspace(0.0, fine, n_fine + 1), coarse[:-1], [length]])
+
+
+def uniaxial_stress(c10, stretch):
+    """Nominal stress of incompressible neo-Hooke in uniaxial tension/compression,
+    P = 2 c10 (lambda - lambda^-2) (Ogden, Non-linear Elastic Deformations, 1984, sect. 7.2)."""
+    return 2 * c10 * (stretch - stretch**-2)
+
+
+def quiet(message):
+    pass
+
+
+# -- (a) kinematics ---------------------------------------------------------------------------
+@pytest.mark.parametrize("kind, segment", [
+    (Triangle, [[0, 0, 0], [1.1, 0.1, 0.05], [0.2, 0.9, -0.1]]),
+    (Quad, [[0, 0, 0], [1.1, 0.1, 0.05], [1.0, 1.2, 0.3], [0.1, 0.9, -0.1]]),  # warped: curvature b_12 != 0
+], ids=["triangle", "bilinear-quad"])
+def test_node_to_segment_tangent_is_the_derivative_of_the_force(kind, segment):
+    """f = alpha G D is the gradient of 1/2 alpha G^2 and K = alpha (D D^T + G H) the
+    gradient of f: central differences agree to roundoff (truncation O(h^2) ~ 1e-12)."""
+    rng = np.random.default_rng(7)
+    x = np.vstack([[0.45, 0.35, -0.1], segment]) + 0.03 * rng.standard_normal((kind.corners + 1, 3))
+    alpha = np.array([3.0])
+
+    def kinematics(v, tangent=False):
+        v = v.reshape(-1, 3)
+        return node_to_segment(v[:1], v[None, 1:], kind, tangent)
+
+    def energy(v):
+        return 0.5 * alpha[0] * kinematics(v).G[0] ** 2
+
+    def force(v):
+        k = kinematics(v)
+        return normal_law(alpha, k.G, k.D)[0][0]
+
+    k = kinematics(x, tangent=True)
+    assert k.G[0] < 0 and np.all(kind.outside(k.xi) == 0)  # a penetrating node inside the segment
+    f, K = normal_law(alpha, k.G, k.D, k.H)
+    h, basis = 1e-6, np.eye(x.size)
+    f_fd = np.array([(energy(x.ravel() + h * e) - energy(x.ravel() - h * e)) / (2 * h) for e in basis])
+    K_fd = np.array([(force(x.ravel() + h * e) - force(x.ravel() - h * e)) / (2 * h) for e in basis]).T
+    assert np.abs(f_fd - f[0]).max() < 1e-8 * np.abs(f).max()
+    assert np.abs(K_fd - K[0]).max() < 1e-8 * np.abs(K).max()
+    assert np.abs(K[0] - K[0].T).max() < 1e-12 * np.abs(K).max()  # a potential: symmetric
+
+
+@pytest.mark.parametrize("shape, point", [
+    (Sphere([0, 0, 0], 1.0), [0.5, 0.4, 0.3]),
+    (Sphere([0, 0, 0], 1.0, inside=True), [0.8, 0.7, 0.3]),
+    (Cylinder([0, 0, 0], [0, 0.3, 1], 1.0), [0.5, 0.4, 0.3]),
+    (Cylinder([0, 0, 0], [0, 0.3, 1], 1.0, inside=True), [0.9, 0.6, 0.3]),
+], ids=["sphere", "sphere-inside", "cylinder", "cylinder-inside"])
+def test_rigid_gap_gradient_and_curvature(shape, point):
+    """grad g and Hess g of the rigid shapes (which give the exact nodal tangent) against
+    central differences."""
+    x, h = np.array([point], dtype=float), 1e-6
+    g, grad, hess = shape.gap(x, np.zeros(3))
+    assert g[0] < 0  # the test points penetrate
+    grad_fd = [(shape.gap(x + h * e, 0)[0] - shape.gap(x - h * e, 0)[0]) / (2 * h) for e in np.eye(3)]
+    hess_fd = [(shape.gap(x + h * e, 0)[1] - shape.gap(x - h * e, 0)[1]) / (2 * h) for e in np.eye(3)]
+    assert np.ravel(grad_fd) == pytest.approx(grad[0], abs=1e-9)
+    assert np.array(hess_fd)[:, 0] == pytest.approx(hess[0], abs=1e-8)
+
+
+def test_bucket_search_finds_exactly_the_brute_force_pairs():
+    rng = np.random.default_rng(3)
+    points = rng.random((400, 3))
+    lo = rng.random((300, 3)) * 0.9
+    hi = lo + 0.02 + 0.1 * rng.random((300, 3))
+    point, box = candidate_pairs(points, lo, hi)
+    inside = np.all((points[:, None] >= lo[None]) & (points[:, None] <= hi[None]), axis=2)
+    assert sorted(zip(point, box)) == sorted(zip(*np.nonzero(inside)))
+
+
+# -- (b) contact patch test -----------------------------------------------------------------
+def test_patch_test_two_blocks_with_non_matching_meshes():
+    """Two unit cubes of incompressible neo-Hooke, non-matching meshes (master 3 x 3, slave
+    5 x 5 across the interface), pressed together by -d on the top: homogeneous uniaxial
+    compression of both with stretch lambda = 1 - (d - g) / 2, g = p / penalty the penalty
+    penetration, contact pressure p = -P(lambda), P = 2 c10 (lambda - lambda^-2)."""
+    c10, d = 0.5, 0.1
+    n = lambda k: np.linspace(0.0, 1.0, k + 1)
+    mesh = blocks_mesh(("lower", n(3), n(3), n(2)), ("upper", n(5), n(5), 1.0 + n(2)))
+    pair = ContactPair("interface", slave="upper_z0", master="lower_z1")
+    scene = ef.Scene("patch", mesh, {"lower": ef.NeoHooke(c10), "upper": ef.NeoHooke(c10)},
+                     features=[ef.Dirichlet("lower_z0", {"z": 0.0}), ef.Dirichlet("lower_x0", {"x": 0.0}),
+                               ef.Dirichlet("lower_y0", {"y": 0.0}), ef.Dirichlet("upper_x0", {"x": 0.0}),
+                               ef.Dirichlet("upper_y0", {"y": 0.0}), ef.Dirichlet("upper_z1", {"z": -d}), pair],
+                     solver=ef.SolverSettings(increments=2), log=quiet)
+    final = scene.run()["steps"][-1]
+    contact, reactions = final["contact"]["interface"], final["reactions"]
+    # the penalty penetration, then the stretch and the stress it leaves
+    g = 0.0
+    for _ in range(50):
+        p = -uniaxial_stress(c10, 1 - (d - g) / 2)
+        g = p / contact["penalty"]  # uniform meshes: the same default penalty on every node
+    assert contact["force"][2] == pytest.approx(p, rel=2e-3)  # measured: -0.08 %
+    # the deepest node penetrates as far as its pressure (below) says; under 1 % of an element
+    assert contact["max_penetration"] == pytest.approx(g, rel=0.15)
+    assert contact["max_penetration"] < 0.01 * (1 / 5)
+    # reactions in balance with each other and with the contact force
+    assert reactions["lower_z0"][2] == pytest.approx(-reactions["upper_z1"][2], rel=1e-8)
+    assert reactions["lower_z0"][2] == pytest.approx(contact["force"][2], rel=1e-8)
+    assert np.abs(contact["force"][:2]).max() < 1e-3 * p  # frictionless, flat: no shear
+    # nodal contact pressure and the interface displacement: single-pass node-to-segment
+    # contact does not pass the patch test exactly on non-matching meshes (Taylor and
+    # Papadopoulos 1991, Int J Numer Meth Eng 31: 1081): measured, the nodal pressure is off
+    # by up to 12.3 %, the interface displacement by up to 4 %
+    state = pair._state(tangent=False)
+    pressure = -state["f"][:, 2] / pair.slave.area[state["node"]]
+    uz = scene.solid.w.x.array[pair.slave_dofs[:, 2]]
+    if len(pressure):
+        assert np.abs(pressure / p - 1).max() < 0.15
+        # the lower block shortens by (d - g) / 2 and the slave face sits g below its top
+        assert np.abs(uz / (-(d + g) / 2) - 1).max() < 0.05
+    assert contact["active_nodes"] == 36  # every slave node carries load
+
+
+# -- (c) rigid plane --------------------------------------------------------------------------
+def test_rigid_plane_compresses_a_block_homogeneously(block_mesh):
+    """A rigid plane moved down by d on the unit cube (rollers on x0, y0, z0): uniaxial
+    compression, nominal stress P = 2 c10 (lambda - lambda^-2), lambda = 1 - d + g, with the
+    penetration g = |P| / penalty (the pressure per unit penetration)."""
+    c10, d = 0.5, 0.2
+    plane = RigidContact("press", "z1", "plane", point=[0, 0, 1], normal=[0, 0, -1], displacement=[0, 0, -d])
+    scene = ef.Scene("plane", block_mesh((2, 2, 3)), {"solid": ef.NeoHooke(c10)},
+                     features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
+                               ef.Dirichlet("z0", {"z": 0.0}), plane],
+                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2), log=quiet)
+    final = scene.run()["steps"][-1]
+    contact = final["contact"]["press"]
+    stretch = 1 + final["probes"]["top"][2]
+    assert contact["force"][2] == pytest.approx(uniaxial_stress(c10, stretch), rel=1e-8)  # exact: homogeneous
+    assert contact["max_penetration"] == pytest.approx(-contact["force"][2] / contact["penalty"], rel=1e-8)
+    assert stretch == pytest.approx(1 - d + contact["max_penetration"], rel=1e-10)
+    assert contact["max_penetration"] < 1e-2 / 3  # 1 % of the element size
+    assert final["reactions"]["z0"][2] == pytest.approx(-contact["force"][2], rel=1e-8)  # in balance
+    assert contact["active_nodes"] == 9
+
+
+def test_penalty_from_the_scene_is_per_unit_area(block_mesh):
+    """penalty = 50 MPa/mm: the penetration is |p| / 50 whatever the mesh."""
+    plane = RigidContact("press", "z1", "plane", penalty=50.0, point=[0, 0, 1], normal=[0, 0, -1],
+                         displacement=[0, 0, -0.1])
+    scene = ef.Scene("plane", block_mesh((1, 1, 2)), {"solid": ef.NeoHooke(0.5)},
+                     features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
+                               ef.Dirichlet("z0", {"z": 0.0}), plane], solver=ef.SolverSettings(increments=1), log=quiet)
+    contact = scene.run()["steps"][-1]["contact"]["press"]
+    assert contact["penalty"] == 50.0
+    assert contact["max_penetration"] == pytest.approx(-contact["force"][2] / 50.0, rel=1e-8)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: RigidContact("c", "z1", "cone", center=[0, 0, 0], radius=1.0),
+    lambda: RigidContact("c", "z1", "sphere", center=[0, 0, 0]),
+    lambda: RigidContact("c", "z1", "sphere", center=[0, 0, 0], radius=-1.0),
+    lambda: RigidContact("c", "z1", "plane", point=[0, 0, 0], normal=[0, 0, 0]),
+    lambda: RigidContact("c", "z1", "plane", point=[0, 0, 0], normal=[0, 0, 1], penalty=0.0),
+    lambda: ContactPair("c", "z1", "z1"),
+], ids=["unknown-shape", "missing-radius", "negative-radius", "zero-normal", "zero-penalty", "self"])
+def test_invalid_contact_is_a_scene_error(make):
+    with pytest.raises(ef.SceneError):
+        make()
+
+
+# -- (d) Hertz ----------------------------------------------------------------------------------
+def test_hertz_rigid_sphere_on_incompressible_half_space():
+    """Rigid sphere (R = 10) pressed d = 0.1 into an incompressible neo-Hooke half-space:
+    F = 4/3 E* R^1/2 d^3/2 with E* = E / (1 - nu^2) = 4 mu (nu = 1/2), i.e.
+    F = 16/3 mu R^1/2 d^3/2 (Johnson, Contact Mechanics, 1985, eq. 4.23), mu = 2 c10.
+
+    Quarter model (symmetry x0, y0; the sphere's centre on the edge x = y = 0) of a block
+    30 a deep and wide, a = (R d)^1/2 the contact radius, on a roller base, graded from
+    7 elements across 1.3 a to the far boundary; the finite block stiffens it by ~a / L."""
+    c10, R, d = 0.5, 10.0, 0.1
+    a = np.sqrt(R * d)
+    L = 30 * a
+    xs = graded(L, 1.3 * a, 7, 7)
+    zs = L - xs[::-1]
+    sphere = RigidContact("sphere", "solid_z1", "sphere", center=[0, 0, L + R], radius=R, displacement=[0, 0, -d])
+    curve = []
+    scene = ef.Scene("hertz", blocks_mesh(("solid", xs, xs, zs)), {"solid": ef.NeoHooke(c10)},
+                     features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
+                               ef.Dirichlet("solid_z0", {"z": 0.0}), sphere],
+                     solver=ef.SolverSettings(increments=4, growth=1.0),
+                     log=lambda message: curve.append((-sphere.shift[2], -4 * sphere.report()["force"][2])))
+    scene.run()
+    depth, force = np.array(curve).T
+    hertz = 16 / 3 * (2 * c10) * np.sqrt(R) * depth**1.5
+    assert force[-1] == pytest.approx(hertz[-1], rel=0.03)
+    assert force[1:] == pytest.approx(hertz[1:], rel=0.03)
+    slope = np.log(force[-1] / force[1]) / np.log(depth[-1] / depth[1])
+    assert slope == pytest.approx(1.5, abs=0.05)
+
+
+# -- (e) sliding --------------------------------------------------------------------------------
+def test_sliding_block_crosses_many_master_elements_with_quadratic_newton():
+    """A block pressed onto a longer one and dragged 1.5 along it (4.5 master elements, 10
+    slave elements, 1/16 of a master element per increment): frictionless, so the contact force stays normal and balances the base's
+    reaction, and Newton converges quadratically once the active set settles."""
+    n = lambda k, lo=0.0, hi=1.0: np.linspace(lo, hi, k + 1)
+    mesh = blocks_mesh(("lower", n(9, 0, 3), n(3), n(2, 0, 0.5)), ("upper", n(4, 0, 0.6), n(4), n(2, 0.5, 1.0)))
+    pair = ContactPair("slide", slave="upper_z0", master="lower_z1")
+    histories = []
+    scene = ef.Scene("slide", mesh, {"lower": ef.NeoHooke(0.5), "upper": ef.NeoHooke(0.5)},
+                     features=[ef.Dirichlet("lower_z0", {"x": 0.0, "y": 0.0, "z": 0.0}),
+                               ef.Dirichlet("lower_y0", {"y": 0.0}), ef.Dirichlet("upper_y0", {"y": 0.0}),
+                               ef.Dirichlet("upper_z1", {"x": 1.5, "z": -0.05}), pair],
+                     probes={"corner": [0.6, 1.0, 1.0]},
+                     # a fresh tangent every Newton step: the convergence rate is the point here
+                     solver=ef.SolverSettings(increments=24, growth=1.0, reuse_contraction=0.0),
+                     log=lambda message: histories.append(list(scene.newton.residual_norms)))
+    final = scene.run()["steps"][-1]
+    contact, reactions = final["contact"]["slide"], final["reactions"]
+    assert final["probes"]["corner"][0] == pytest.approx(1.5)
+    assert reactions["lower_z0"][2] == pytest.approx(-reactions["upper_z1"][2], rel=1e-7)
+    assert contact["force"][2] == pytest.approx(reactions["lower_z0"][2], rel=1e-7)
+    # frictionless, yet the block ploughs through the dent it makes: a drag of 0.9 % of the
+    # normal force, carried by the supports
+    assert contact["force"][0] == pytest.approx(reactions["lower_z0"][0], rel=1e-7)
+    assert abs(contact["force"][0]) < 0.02 * contact["force"][2]
+    assert contact["max_penetration"] < 0.02 * 0.15  # 1.2 % of a slave element, at its trailing edge
+    assert max(len(h) - 1 for h in histories) <= 6
+    # quadratic convergence: r_(k+1) / r_k^2 stays bounded while above roundoff
+    for history in histories[1:]:
+        r = np.array(history) / history[0]
+        pairs = [(r[k], r[k + 1]) for k in range(len(r) - 1) if r[k + 1] > 1e-12]
+        for before, after in pairs[1:]:
+            assert after < 10 * before**2
