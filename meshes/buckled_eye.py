@@ -522,21 +522,10 @@ def main(argv=None):
                         help="a silicone tire under the band (arc_deg < 360: segmental, no band unless --band)")
     parser.add_argument("--band", action=argparse.BooleanOptionalAction, default=None,
                         help="build the band (default: yes, but over a segmental tire)")
-    parser.add_argument("--axial-length", dest="axial_length", type=float, default=24.0)
-    parser.add_argument("--sclera-thickness-limbus", dest="sclera_thickness_limbus", type=float, default=0.5)
-    parser.add_argument("--sclera-thickness-equator", dest="sclera_thickness_equator", type=float, default=0.4)
-    parser.add_argument("--sclera-thickness-pole", dest="sclera_thickness_pole", type=float, default=1.0)
-    parser.add_argument("--cornea-thickness", dest="cornea_thickness", type=float, default=0.53)
-    parser.add_argument("--choroid-thickness", dest="choroid_thickness", type=float, default=0.25)
-    parser.add_argument("--retina-thickness", dest="retina_thickness", type=float, default=0.25)
-    parser.add_argument("--optic-nerve-diameter", dest="optic_nerve_diameter", type=float, default=3.5)
-    parser.add_argument("--optic-nerve-length", dest="optic_nerve_length", type=float, default=3.0)
+    _eye.add_eye_arguments(parser)
     parser.add_argument("--detachment", type=float, nargs="+", metavar="VALUE",
                         help="EXTENT_DEG GAP (a detached cap under the buckle, azimuth 0) or "
                              "POLAR_DEG AZIMUTH_DEG EXTENT_DEG GAP")
-    parser.add_argument("--refine", type=int, default=1, help="2 doubles the eye's elements in every direction")
-    parser.add_argument("--n-circ", dest="n_circ", type=int, default=None, help="sectors of the full circle")
-    parser.add_argument("--sector-deg", dest="sector_deg", type=float, default=360.0, choices=_eye._SECTORS)
     run_cli(parser, _build_from_cli, argv)
 
 

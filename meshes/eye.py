@@ -732,10 +732,8 @@ def _build_from_cli(detachment=None, **parameters):
           f"built in {info['build_seconds']:.2f} s")
 
 
-def main(argv=None):
-    """Command-line entry point: write an eye mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.eye", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, help="the .msh file to write")
+def add_eye_arguments(parser):
+    """The eye's dimensions and resolution as command-line options (all but the detachment)."""
     parser.add_argument("--axial-length", dest="axial_length", type=float, default=24.0)
     parser.add_argument("--sclera-thickness-limbus", dest="sclera_thickness_limbus", type=float, default=0.5)
     parser.add_argument("--sclera-thickness-equator", dest="sclera_thickness_equator", type=float, default=0.4)
@@ -745,12 +743,19 @@ def main(argv=None):
     parser.add_argument("--retina-thickness", dest="retina_thickness", type=float, default=0.25)
     parser.add_argument("--optic-nerve-diameter", dest="optic_nerve_diameter", type=float, default=3.5)
     parser.add_argument("--optic-nerve-length", dest="optic_nerve_length", type=float, default=3.0)
-    parser.add_argument("--detachment", type=float, nargs=4,
-                        metavar=("POLAR_DEG", "AZIMUTH_DEG", "EXTENT_DEG", "GAP"),
-                        help="detached cap: centre (degrees from the posterior pole, azimuth), angular radius, gap (mm)")
     parser.add_argument("--refine", type=int, default=1, help="2 doubles the elements in every direction")
     parser.add_argument("--n-circ", dest="n_circ", type=int, default=None, help="sectors of the full circle")
     parser.add_argument("--sector-deg", dest="sector_deg", type=float, default=360.0, choices=_SECTORS)
+
+
+def main(argv=None):
+    """Command-line entry point: write an eye mesh (on rank 0 when run under MPI)."""
+    parser = argparse.ArgumentParser(prog="python3 -m meshes.eye", description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, help="the .msh file to write")
+    add_eye_arguments(parser)
+    parser.add_argument("--detachment", type=float, nargs=4,
+                        metavar=("POLAR_DEG", "AZIMUTH_DEG", "EXTENT_DEG", "GAP"),
+                        help="detached cap: centre (degrees from the posterior pole, azimuth), angular radius, gap (mm)")
     run_cli(parser, _build_from_cli, argv)
 
 
