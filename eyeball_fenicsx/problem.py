@@ -176,7 +176,8 @@ class Problem:
         self.vector_to_state(x)
         det_min, where = self.guard.check()
         if not det_min > 0:
-            self.inverted = (det_min, where)
+            if self.inverted is None:  # the first inversion of this Newton solve: where it began
+                self.inverted = (det_min, where)
             b.set(np.inf)
             return
         with self.b_w.localForm() as bl:
