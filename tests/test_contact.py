@@ -291,3 +291,25 @@ def test_sliding_block_crosses_many_master_elements_with_quadratic_newton():
         pairs = [(r[k], r[k + 1]) for k in range(len(r) - 1) if r[k + 1] > 1e-12]
         for before, after in pairs[1:]:
             assert after < 10 * before**2
+
+
+@pytest.mark.parametrize("penalty", [1e0, 1e1, 1e2, 1e3, 1e4, 1e5])
+def test_penalties_over_five_decades_converge(block_mesh, penalty):
+    """A rigid plane pushed d = 0.1 into the unit cube: every penalty from 1 to 1e5 MPa/mm
+    (the default here is about 90; at 1e6 the residual's round-off floor reaches the
+    absolute tolerance and the run stops with a ConvergenceError near the end)
+    converges, the penetration is |P| / penalty, and the stress is the uniaxial closed form
+    P = 2 c10 (lambda - lambda^-2) at lambda = 1 - d + g: the penalty only decides g."""
+    c10, d = 0.5, 0.1
+    plane = RigidContact("press", "z1", "plane", penalty=penalty, point=[0, 0, 1], normal=[0, 0, -1],
+                         displacement=[0, 0, -d])
+    scene = ef.Scene("decades", block_mesh((1, 1, 2)), {"solid": ef.NeoHooke(c10)},
+                     features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
+                               ef.Dirichlet("z0", {"z": 0.0}), plane],
+                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2), log=quiet)
+    final = scene.run()["steps"][-1]
+    contact = final["contact"]["press"]
+    stretch = 1 + final["probes"]["top"][2]
+    assert contact["max_penetration"] == pytest.approx(-contact["force"][2] / penalty, rel=1e-6)
+    assert stretch == pytest.approx(1 - d + contact["max_penetration"], rel=1e-8)
+    assert contact["force"][2] == pytest.approx(uniaxial_stress(c10, stretch), rel=1e-8)
