@@ -302,7 +302,7 @@ class _SolidTables:
         self.dofs = np.full((size, 3), -1, dtype=np.int32)
         for k in range(3):
             self.dofs[cell_dofs[0].ravel(), k] = cell_dofs[k].ravel()
-        V0, to_W = W.sub(0).sub(0).collapse()
+        V0, to_W = solid.component(0)
         self.X = np.zeros((size, 3))
         self.X[to_W] = V0.tabulate_dof_coordinates()
         self.global_index = index_map.local_to_global(np.arange(size, dtype=np.int32)).astype(PETSc.IntType)

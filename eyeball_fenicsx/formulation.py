@@ -20,6 +20,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dolfinx import fem
+from dolfinx.mesh import compute_midpoints
 
 from .errors import SceneError
 from .kinematics import cauchy_stress, deformation_gradient, von_mises
@@ -133,6 +134,13 @@ class MixedSolid:
         facets = self.mesh_data.facets(surface)
         return [fem.locate_dofs_topological(self.W.sub(0).sub(i), msh.topology.dim - 1, facets) for i in range(3)]
 
+    def component(self, i):
+        """(V_i, its dofs' indices in W) of displacement component i. Collapsed once; the
+        first call is collective, so make it during setup."""
+        if not hasattr(self, "_components"):
+            self._components = [self.W.sub(0).sub(k).collapse() for k in range(3)]
+        return self._components[i]
+
     @property
     def num_owned(self):
         return self.W.dofmap.index_map.size_local
@@ -161,9 +169,7 @@ class MaterialNode:
         self.solid = solid
         W = solid.W
         owned = solid.num_owned
-        # collapse() is collective: every rank maps all three components
-        collapsed = [W.sub(0).sub(i).collapse() for i in range(3)]
-        V0, to_W = collapsed[0]
+        V0, to_W = solid.component(0)
         x = V0.tabulate_dof_coordinates()
         candidates = np.arange(V0.dofmap.index_map.size_local)
         if surface is not None:
@@ -177,7 +183,7 @@ class MaterialNode:
         local = None
         if solid.comm.rank == self.owner:
             node = candidates[int(distance.argmin())]
-            local = np.array([collapsed[i][1][node] for i in range(3)], dtype=np.int32)
+            local = np.array([solid.component(i)[1][node] for i in range(3)], dtype=np.int32)
             assert (local < owned).all()
         self.local = local
         data = None
@@ -202,20 +208,12 @@ class JacobianGuard:
         self.detF = fem.Function(V)
         self._expr = fem.Expression(ufl.det(solid.F), V.element.interpolation_points())
         num_cells = msh.topology.index_map(msh.topology.dim).size_local
-        self._midpoints = dolfinx_midpoints(msh, num_cells)
+        self._midpoints = compute_midpoints(msh, msh.topology.dim, np.arange(num_cells, dtype=np.int32))
 
     def check(self):
         """Return (min det F over the mesh, reference location of that element) on every rank."""
         self.detF.interpolate(self._expr)
         values = self.detF.x.array[: len(self._midpoints)]
-        local = (values.min(), self._midpoints[values.argmin()]) if len(values) else (np.inf, np.zeros(3))
-        comm = self.solid.comm
-        everyone = comm.allgather((float(local[0]) if np.isfinite(local[0]) else -np.inf
-                                   if np.isnan(local[0]) else np.inf, local[1]))
-        return min(everyone, key=lambda item: item[0])
-
-
-def dolfinx_midpoints(msh, num_cells):
-    """Reference coordinates of the midpoints of the first ``num_cells`` local cells."""
-    from dolfinx.mesh import compute_midpoints
-    return compute_midpoints(msh, msh.topology.dim, np.arange(num_cells, dtype=np.int32))
+        values = np.where(np.isnan(values), -np.inf, values)  # a NaN state is as bad as an inversion
+        local = (float(values.min()), self._midpoints[values.argmin()]) if len(values) else (np.inf, np.zeros(3))
+        return min(self.solid.comm.allgather(local), key=lambda item: item[0])

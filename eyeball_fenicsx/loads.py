@@ -37,11 +37,11 @@ class Dirichlet(Feature):
         facets = solid.mesh_data.facets(self.surface)
         for i in self.components:
             Wi = solid.W.sub(0).sub(i)
-            Vi, _ = Wi.collapse()
+            Vi, _ = solid.component(i)
             g = fem.Function(Vi)
             dofs = fem.locate_dofs_topological((Wi, Vi), msh.topology.dim - 1, facets)
             self._bcs.append(fem.dirichletbc(g, dofs, Wi))
-            self._values.append((i, g, dofs[1]))
+            self._values.append((i, g, dofs))
         self.active = False
 
     def begin_step(self, step_index):
@@ -49,14 +49,13 @@ class Dirichlet(Feature):
         if step_index == self.step:
             # ramp from where the surface is now (zero in the first step) to the target
             self._start = {}
-            for i, g, collapsed in self._values:
-                current = self.solid.w.sub(0).sub(i).collapse()
-                self._start[i] = current.x.array[collapsed].copy()
+            for i, g, (in_W, _) in self._values:
+                self._start[i] = self.solid.w.x.array[in_W].copy()
 
     def set_load_factor(self, factor):
         if not self.active:
             return
-        for i, g, collapsed in self._values:
+        for i, g, (_, collapsed) in self._values:
             start = self._start[i]
             g.x.array[collapsed] = start + factor * (self.components[i] - start)
 

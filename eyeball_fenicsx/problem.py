@@ -71,12 +71,12 @@ class Problem:
         pattern = fem.create_sparsity_pattern(self.J_form)
         pattern.assemble()
         graph = pattern.graph
-        d_nnz = np.empty(n + self.n_extra_local, dtype=PETSc.IntType)
-        o_nnz = np.empty_like(d_nnz)
-        for row in range(n):
-            cols = graph.links(row)
-            d_nnz[row] = np.count_nonzero(cols < n)
-            o_nnz[row] = len(cols) - d_nnz[row]
+        rows = np.repeat(np.arange(len(graph.offsets) - 1), np.diff(graph.offsets))
+        owned = rows < n  # the pattern also lists ghost rows
+        d_nnz = np.zeros(n + self.n_extra_local, dtype=PETSc.IntType)
+        o_nnz = np.zeros_like(d_nnz)
+        d_nnz[:n] = np.bincount(rows[owned & (graph.array < n)], minlength=n)
+        o_nnz[:n] = np.bincount(rows[owned], minlength=n) - d_nnz[:n]
         if m:  # every row may meet each border column; border rows may be full
             (d_nnz if comm.rank == self.last else o_nnz)[:n] += m
             d_nnz[n:] = n + m
