@@ -31,10 +31,16 @@ class BandTightening(Feature):
     def __init__(self, region, reduction, center=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0), step=0):
         if isinstance(reduction, bool) or not isinstance(reduction, (int, float)) or not np.isfinite(reduction):
             raise SceneError(f"band {region!r}: reduction must be a finite number, got {reduction!r}")
+        if reduction < 0:
+            raise SceneError(f"band {region!r}: reduction is how much the band's circumference is shortened; it must "
+                             f"not be negative, got {reduction!r}")
+        axis = np.asarray(axis, dtype=float)
+        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 0:
+            raise SceneError(f"band {region!r}: axis must be a non-zero vector of three numbers, got {axis.tolist()}")
         self.name = self.region = region
         self.reduction, self.step = float(reduction), step
         self.center = np.asarray(center, dtype=float)
-        self.axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        self.axis = axis / np.linalg.norm(axis)
 
     def setup(self, solid):
         if self.region not in solid.materials:

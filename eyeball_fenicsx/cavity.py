@@ -76,8 +76,14 @@ class LiquidCavity(Feature):
         if pressurize and injected_volume:
             raise SceneError(f"cavity {name!r}: pressurize fills the cavity to its initial_pressure; "
                              "give no injected_volume with it (use an injection in a later step)")
+        surfaces = [surface] if isinstance(surface, str) else list(surface)
+        if not surfaces or not all(isinstance(s, str) and s for s in surfaces):
+            raise SceneError(f"cavity {name!r}: surface must be a surface group name or a non-empty list of them, "
+                             f"got {surface!r}")
+        if len(set(surfaces)) < len(surfaces):
+            raise SceneError(f"cavity {name!r}: surface lists a surface group twice: {surfaces}")
         self.name, self.step = name, step
-        self.surfaces = [surface] if isinstance(surface, str) else list(surface)
+        self.surfaces = surfaces
         self.surface = surface
         self.pressurize, self.filling = pressurize, False
         self.K, self.p_ini, self.dV_inj = float(bulk_modulus), float(initial_pressure), float(injected_volume)

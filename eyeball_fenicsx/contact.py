@@ -66,6 +66,16 @@ while it still projects onto it, so it never flip-flops across a fold) and is ac
 penetrates. Contact forces are added by global index; the rows of master nodes owned by
 other ranks go to their owners through PETSc's stash.
 
+Contact onset (``step_fraction``): the tangent of an open node is zero, so a Newton step that
+closes a gap drives the surfaces through each other by the whole step, far beyond the
+penalty's equilibrium penetration (on the buckled eye: the inflating sclera 0.14 mm into the
+band, against an equilibrium 4e-5 mm), and the penalty throws them apart again; the bt line
+search then crawled and Newton stalled. Before each Newton update, the solver shortens the
+step to where the first open node has closed to the depth at which it carries the largest
+force already out of balance on the slave surface; from the next iteration on that node is in
+the tangent. A Newton step that closes nothing is not touched, so the converged answer and
+Newton's quadratic convergence are as before. The predictor is limited the same way.
+
 Frictionless: the normal law is ``normal_law``; the tangential kinematics a friction law
 needs (the projection xi, the dual basis, the metric) are in ``NodeToSegment``.
 """
@@ -87,6 +97,8 @@ PENALTY_FACTOR = 30.0
 SEARCH_FACTOR = 1.0  # candidate segments lie within this many segment sizes of a node
 SWITCH_TOLERANCE = 0.01  # hysteresis of a node's segment, as a fraction of the segment's size
 OVERHANG_TOLERANCE = 0.25  # a node this far past the master's edge (fraction of a segment) still hits it
+ONSET_TOLERANCE = 1e-6  # a node closing in a Newton step may also go this deep (fraction of its size)
+ONSET_ITERATIONS = 8  # regula falsi steps to find where along a Newton step the first gap closes
 _ADD = PETSc.InsertMode.ADD_VALUES
 
 
@@ -420,6 +432,7 @@ class _ContactFeature(Feature):
     adds_to_residual = True
     adds_to_jacobian = True
     symmetric_tangent = True  # frictionless: the Hessian of a potential
+    limits_steps = True
 
     def __init__(self, name, slave, penalty, step):
         self.name, self.slave_name, self.step = name, slave, step
@@ -465,6 +478,34 @@ class _ContactFeature(Feature):
 
     def _reserve(self, A):
         """Make room in A for the entries contact may add later (nothing by default)."""
+
+    def step_fraction(self, du, residual):
+        """The largest fraction (at most 1) of the state change ``du`` (the owned entries of the
+        mixed vector) that closes no open gap by more than the residual allows (collective).
+
+        The tangent knows nothing of open nodes: a Newton step that closes a gap would drive
+        the surfaces through each other, far beyond the penalty's equilibrium penetration, and
+        the penalty would then throw them apart. So the step stops where the first gap has
+        closed to a depth d_i = f / alpha_i, f the largest residual force on the slave nodes
+        (``residual``: the owned entries of the residual vector): the closing nodes take no
+        more force than is out of balance already, and are active in the next tangent. The
+        place is found by regula falsi along the step (Illinois modification)."""
+        if not self.active:
+            return 1.0
+        node = self.gap_nodes
+        force = np.abs(residual[self.slave_dofs]).max(initial=0.0)
+        depth = self.solid.comm.allreduce(force, op=MPI.MAX) / self.alpha[node] \
+            + ONSET_TOLERANCE * np.sqrt(self.slave.area[node])
+        now, new = self._gaps(du, 0.0) + depth, self._gaps(du, 1.0) + depth
+        closing = (now > depth) & (new < 0)
+        lo, hi, f_lo, f_hi = np.zeros(len(node)), np.ones(len(node)), now, new
+        for _ in range(ONSET_ITERATIONS if self.solid.comm.allreduce(closing.any(), op=MPI.LOR) else 0):
+            trial = np.where(closing, lo + (hi - lo) * f_lo / (f_lo - f_hi), 1.0)
+            f = self._gaps(du, trial) + depth
+            below = f < 0
+            f_lo, lo = np.where(below, 0.5 * f_lo, f), np.where(below, lo, trial)  # Illinois: halve the
+            f_hi, hi = np.where(below, f, 0.5 * f_hi), np.where(below, trial, hi)  # end that stays
+        return self.solid.comm.allreduce(np.min(hi[closing], initial=1.0), op=MPI.MIN)
 
     def report(self):
         """Total force on the slave surface, deepest penetration and where (reference
@@ -553,12 +594,31 @@ class ContactPair(_ContactFeature):
 
     def master_positions(self):
         """Current coordinates of every master node (collective: gathers the displacements)."""
+        return self.master_X + self._gather_master(self.solid.w.x.array)
+
+    def _gather_master(self, values):
+        """The master nodes' entries (n, 3) of a mixed vector's local array, from every rank."""
         start = time.perf_counter()
-        mine = np.ascontiguousarray(self.solid.w.x.array[self.master_dofs]).ravel()
+        mine = np.ascontiguousarray(values[self.master_dofs]).ravel()
         u = np.empty(self.master_counts.sum())
         self.solid.comm.Allgatherv(mine, [u, self.master_counts])
         self.timing["gather"] += time.perf_counter() - start
-        return self.master_X + u.reshape(-1, 3)
+        return u.reshape(-1, 3)
+
+    @property
+    def gap_nodes(self):
+        """The slave nodes that have a gap: those that project on a segment."""
+        return np.flatnonzero(self.segment >= 0)
+
+    def _gaps(self, du, fraction):
+        """Gaps of ``gap_nodes`` at the state changed by fraction * du (fraction: a number, or
+        one per node)."""
+        node = self.gap_nodes
+        seg = self.segments[self.segment[node]]
+        fraction = np.broadcast_to(fraction, node.shape)[:, None]
+        xs = self.slave_positions()[node] + fraction * du[self.slave_dofs[node]]
+        xm = self.master_positions()[seg] + fraction[:, None] * self._gather_master(du)[seg]
+        return node_to_segment(xs, xm, self.kind, tangent=False).G
 
     def _search(self):
         """Candidate segments of each owned slave node, from the current positions."""
@@ -762,6 +822,14 @@ class RigidContact(_ContactFeature):
 
     def set_load_factor(self, factor):
         self.shift = factor * self.displacement
+
+    @property
+    def gap_nodes(self):
+        return np.arange(len(self.slave.nodes))
+
+    def _gaps(self, du, fraction):
+        x = self.slave_positions() + np.broadcast_to(fraction, self.gap_nodes.shape)[:, None] * du[self.slave_dofs]
+        return self.shape.gap(x, self.shift)[0]
 
     def _state(self, tangent):
         x = self.slave_positions()

@@ -24,6 +24,7 @@ class Feature:
     section = None  # the summary.json key this feature reports under, if any
     adds_to_residual = False  # set by features with custom assembly
     adds_to_jacobian = False
+    limits_steps = False  # set by features that override step_fraction
 
     def setup(self, solid):
         """Called once, when the problem is built; locate surfaces, create forms."""
@@ -48,6 +49,12 @@ class Feature:
         """Collective: True if the last tangent no longer fits the state (a contact active set
         changed), so Newton must not reuse its factorization."""
         return False
+
+    def step_fraction(self, du, residual):
+        """Collective: the largest fraction (at most 1) of the state change ``du`` that Newton
+        may take in one step (contact onset); du and the current residual are the owned
+        entries of mixed vectors."""
+        return 1.0
 
     def coupling(self):
         """(rows, cols): global indices of the matrix entries ``add_to_jacobian`` may touch

@@ -58,7 +58,7 @@ class Problem:
         self.lgmap = PETSc.LGMap().create(local_to_global, comm=comm)
 
         self.b_w = fem.petsc.create_vector(self.R_form)
-        self.scratch = self.b_w.duplicate()
+        self.scratch = self.b_w.duplicate() if self.custom else None  # see F
         self.A = self._create_matrix()
         self.x, self.b = self.A.createVecs()
         self.guard = JacobianGuard(solid)
@@ -156,6 +156,13 @@ class Problem:
         for f in self.features:
             f.state_changed()
 
+    def step_fraction(self, du, residual):
+        """The largest fraction (at most 1) of the state change du that every feature allows in
+        one step, given the residual at the current state (local arrays of bordered vectors;
+        collective)."""
+        return min([f.step_fraction(du[: self.n_owned], residual[: self.n_owned]) for f in self.features],
+                   default=1.0)
+
     # -- SNES callbacks ------------------------------------------------------------------
     def assemble_residual_unconstrained(self):
         """The residual vector of the UFL forms, ghosts accumulated, no BC treatment."""
@@ -185,12 +192,16 @@ class Problem:
         assemble_vector(self.b_w, self.R_form)
         apply_lifting(self.b_w, [self.J_form], [self.bcs], x0=[self.solid.w.vector], scale=-1.0)
         self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if not self.custom:  # Dirichlet rows: x - g, in place as in DOLFINx
+            set_bc(self.b_w, self.bcs, self.solid.w.vector, -1.0)
         b.array[: self.n_owned] = self.b_w.array_r[: self.n_owned]
         b.array[self.n_owned:] = self._border_residuals()
+        if not self.custom:  # nothing was added by global index: no VecAssembly, no scratch vector
+            return
         for f in self.custom:
             f.add_to_residual(b)
         b.assemble()
-        # Dirichlet rows: x - g
+        # Dirichlet rows: x - g, over whatever the custom features added to them
         with self.scratch.localForm() as sl:
             sl.set(0.0)
         set_bc(self.scratch, self.bcs, self.solid.w.vector, -1.0)
@@ -205,7 +216,8 @@ class Problem:
     def J(self, snes, x, A, P):
         A.zeroEntries()
         assemble_matrix(A, self.J_form, self.bcs, diagonal=1.0)
-        A.assemble(PETSc.Mat.AssemblyType.FLUSH)  # the BC diagonal was inserted, the rest adds
+        if self.bordered or self.custom_jacobian:
+            A.assemble(PETSc.Mat.AssemblyType.FLUSH)  # the BC diagonal was inserted, the rest adds
         index = self.n_global
         for f in self.bordered:
             for dofs, column, row, diagonal in f.border():

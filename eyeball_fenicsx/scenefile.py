@@ -154,9 +154,16 @@ def _contact(t: _Table, step_of):
         raise t.error("give exactly one of master (a surface) or rigid (a rigid body)")
     if t.has("master"):
         master = t.get("master", "string")
-        return ContactPair(name, slave, master, penalty=penalty, step=step_of(t)), [slave, master]
+        step = step_of(t)
+        try:
+            return ContactPair(name, slave, master, penalty=penalty, step=step), [slave, master]
+        except SceneError as error:  # the pair's own checks: slave and master differ
+            raise t.error(str(error)) from None
     rigid = t.data["rigid"]
-    shape = rigid.get("shape") if isinstance(rigid, dict) else None
+    if not isinstance(rigid, dict):
+        raise t.error(f'rigid must be a table, e.g. rigid = {{ shape = "plane", point = [0.0, 0.0, 1.0], '
+                      f'normal = [0.0, 0.0, -1.0] }}, got {rigid!r}')
+    shape = rigid.get("shape")
     if shape not in RIGID_SHAPES:
         raise t.error(f"rigid.shape must be one of {sorted(RIGID_SHAPES)}, got {shape!r}")
     r = _Table(rigid, f"{t.where} rigid", RIGID_SHAPES[shape] | {"shape", "displacement", "inside"})
@@ -167,7 +174,11 @@ def _contact(t: _Table, step_of):
         params["inside"] = r.get("inside", "bool", False)
     elif r.has("inside"):
         raise r.error("inside applies to sphere and cylinder only")
-    return RigidContact(name, slave, shape, penalty=penalty, step=step_of(t), **params), [slave]
+    step = step_of(t)
+    try:
+        return RigidContact(name, slave, shape, penalty=penalty, step=step, **params), [slave]
+    except SceneError as error:  # the shape's own checks: a non-zero normal or axis
+        raise r.error(str(error)) from None
 
 
 def _mesh(table: _Table, directory, comm):
@@ -177,7 +188,10 @@ def _mesh(table: _Table, directory, comm):
         path = os.path.join(directory, given)
         if not os.path.isfile(path):
             raise table.error(f"file = {given!r}: {path} does not exist (the path is relative to the scene file)")
-        return load_mesh(path, comm)
+        try:
+            return load_mesh(path, comm)
+        except SceneError as error:  # the mesh's own checks: gmsh reads it, named groups, supported elements
+            raise table.error(str(error)) from None
     builder = table.get("builder", "string", required=False)
     from meshes import band, block, buckled_eye, eye, sphere_octant
     builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant,
@@ -279,17 +293,22 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         if cavity not in cavities:
             raise t.error(f"cavity {cavity!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
         features.append(Injection(cavities[cavity], t.get("volume", "number", required=True), step=step_of(t)))
+    sutures = set()  # names, unique: each is a key of "sutures" in summary.json
     for t, where in _array(data, "suture", path):
         t = _Table(t, where, {"name", "first", "second", "tension", "shortening", "stiffness", "first_surface",
                               "second_surface", "anchored", "step"})
+        name_ = t.get("name", "string", required=True)
+        if name_ in sutures:
+            raise t.error(f"suture name {name_!r} is used twice")
+        sutures.add(name_)
         ends = {key: t.get(key, "string") for key in ("first_surface", "second_surface")}
+        arguments = (name_, t.get("first", "vector", required=True), t.get("second", "vector", required=True))
+        options = {"tension": t.get("tension", "nonnegative"), "shortening": t.get("shortening", "nonnegative"),
+                   "stiffness": t.get("stiffness", "positive"), "anchored": t.get("anchored", "bool", False),
+                   "step": step_of(t), **ends}
         try:
-            features.append(Suture(t.get("name", "string", required=True), t.get("first", "vector", required=True),
-                                   t.get("second", "vector", required=True), tension=t.get("tension", "nonnegative"),
-                                   shortening=t.get("shortening", "nonnegative"),
-                                   stiffness=t.get("stiffness", "positive"), anchored=t.get("anchored", "bool", False),
-                                   step=step_of(t), **ends))
-        except SceneError as error:
+            features.append(Suture(*arguments, **options))
+        except SceneError as error:  # the suture's own checks: tension or shortening
             raise t.error(str(error)) from None
         surfaces_used.extend((n, where) for n in ends.values() if n)
     for t, where in _array(data, "band", path):
@@ -297,28 +316,37 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         region = t.get("region", "string", required=True)
         if region not in materials:
             raise t.error(f"region {region!r} has no [materials.{region}] table")
-        features.append(BandTightening(region, t.get("reduction", "number", required=True),
-                                       center=t.get("center", "vector", [0.0, 0.0, 0.0]),
-                                       axis=t.get("axis", "vector", [0.0, 0.0, 1.0]), step=step_of(t)))
+        arguments = (region, t.get("reduction", "number", required=True))
+        options = {"center": t.get("center", "vector", [0.0, 0.0, 0.0]),
+                   "axis": t.get("axis", "vector", [0.0, 0.0, 1.0]), "step": step_of(t)}
+        try:
+            features.append(BandTightening(*arguments, **options))
+        except SceneError as error:  # the band's own checks: a reduction >= 0, a non-zero axis
+            raise t.error(str(error)) from None
     if "buckle_sutures" in data:
         t = _Table(data["buckle_sutures"], f"{path}: [buckle_sutures]",
                    {"count", "width", "azimuths", "tension", "shortening", "stiffness", "step"})
         mesh = data.get("mesh") if isinstance(data.get("mesh"), dict) else {}
         if mesh.get("builder") != "buckled_eye":
             raise t.error('needs [mesh] builder = "buckled_eye" (the sutures follow its buckle)')
+        if t.has("tension") == t.has("shortening"):
+            raise t.error("give exactly one of tension or shortening")
         from meshes.buckled_eye import suture_points
         parameters = {k: v for k, v in mesh.items() if k != "builder"}
-        azimuths = t.get("azimuths", "numbers") if t.has("azimuths") else None
+        where = {"count": t.get("count", "integer", 4), "suture_width": t.get("width", "positive"),
+                 "azimuth_deg": t.get("azimuths", "numbers")}
+        pull = {"tension": t.get("tension", "nonnegative"), "shortening": t.get("shortening", "nonnegative"),
+                "stiffness": t.get("stiffness", "positive"), "bilateral": True, "step": step_of(t)}
         try:
-            points = suture_points(parameters, count=t.get("count", "integer", 4), suture_width=t.get("width", "positive"),
-                                   azimuth_deg=azimuths)
-            for point in points:
-                features.append(Suture(point["name"], point["sclera"], point["buckle"],
-                                       tension=t.get("tension", "nonnegative"), shortening=t.get("shortening", "nonnegative"),
-                                       stiffness=t.get("stiffness", "positive"), first_surface=point["sclera_surface"],
-                                       second_surface=point["buckle_surface"], bilateral=True, step=step_of(t)))
-        except (SceneError, TypeError) as error:
+            points = suture_points(parameters, **where)
+        except (SceneError, TypeError) as error:  # the buckle's own checks (and those of [mesh])
             raise t.error(str(error)) from None
+        for point in points:
+            if point["name"] in sutures:
+                raise t.error(f"suture name {point['name']!r} is used twice: rename the [[suture]]")
+            sutures.add(point["name"])
+            ends = {"first_surface": point["sclera_surface"], "second_surface": point["buckle_surface"]}
+            features.append(Suture(point["name"], point["sclera"], point["buckle"], **ends, **pull))
     if "eye" in data:
         t = _Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
                                                    "posterior_surface"})
@@ -331,15 +359,24 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
                                     t.get("posterior", "vector", [0.0, 0.0, -1e3]),
                                     vitreous=cavities.get(vitreous), **ends))
         surfaces_used.extend((n, t.where) for n in ends.values())
+    contacts = set()
     for t, where in _array(data, "contact", path):
-        feature, names = _contact(_Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"}), step_of)
+        t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"})
+        name_ = t.get("name", "string", required=True)
+        if name_ in contacts:
+            raise t.error(f"contact name {name_!r} is used twice")
+        contacts.add(name_)
+        feature, names = _contact(t, step_of)
         features.append(feature)
         surfaces_used.extend((n, where) for n in names)
 
     probes = {}
     for t, where in _array(data, "probe", path):
         t = _Table(t, where, {"name", "point"})
-        probes[t.get("name", "string", required=True)] = t.get("point", "vector", required=True)
+        name_ = t.get("name", "string", required=True)
+        if name_ in probes:
+            raise t.error(f"probe name {name_!r} is used twice")
+        probes[name_] = t.get("point", "vector", required=True)
 
     solver_table = _Table(data.get("solver", {}), f"{path}: [solver]",
                           {"increments", "max_cutbacks", "growth", "predictor", "element"})

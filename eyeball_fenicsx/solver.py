@@ -82,7 +82,13 @@ class NewtonSolver:
     def __init__(self, problem, prefix=PREFIX):
         self.problem = problem
         opts = PETSc.Options()
-        for key, value in DEFAULT_OPTIONS.items():
+        defaults = dict(DEFAULT_OPTIONS)
+        if any(f.limits_steps for f in problem.features):
+            # the step limit at contact onset already shortens the Newton step; a backtracking
+            # line search would take a fraction of that again (a shortened Newton step decreases
+            # the residual less than its sufficient-decrease test asks), and crawl
+            defaults["snes_linesearch_type"] = "basic"
+        for key, value in defaults.items():
             if not opts.hasName(prefix + key):
                 opts[prefix + key] = value
         self.choose_factorization = not opts.hasName(prefix + "pc_type")  # else the user's
@@ -94,6 +100,7 @@ class NewtonSolver:
         snes.setFunction(problem.F, problem.b)
         snes.setJacobian(self._jacobian, problem.A)
         snes.setConvergenceTest(self._converged)
+        snes.setLineSearchPreCheck(self._limit_step)
         snes.getKSP().getPC().setType("lu")
         self._set_from_options()
         self.residual_norms = []
@@ -130,6 +137,16 @@ class NewtonSolver:
         self.tangents += 1
         if snes.getIterationNumber() == 0 and self.choose_factorization:
             self._set_factorization("cholesky" if self._symmetric(A) else "lu")
+
+    def _limit_step(self, x, y):
+        """Shorten the Newton step x -> x - y where it would close a contact gap too far
+        (``Feature.step_fraction``); returns whether y changed."""
+        self.problem.vector_to_state(x)
+        fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
+        if fraction < 1.0:
+            y.scale(fraction)
+            self.limited_steps += 1
+        return fraction < 1.0
 
     def _converged(self, snes, its, norms):
         """PETSc's default test (SNESConvergedDefault), POLISH times stricter after a chord
@@ -170,7 +187,7 @@ class NewtonSolver:
     def solve(self, x):
         """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
         self.residual_norms = []
-        self.tangents = 0
+        self.tangents = self.limited_steps = 0
         self.problem.inverted = None
         self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
@@ -213,8 +230,14 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         dt = min(dt, 1.0 - t)
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
-        if use_predictor and x_prev is not None:
-            x.axpy(dt / dt_prev, x_old - x_prev)
+        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact
+            secant = x_old - x_prev
+            secant.scale(dt / dt_prev)
+            fraction = 1.0
+            if any(f.limits_steps for f in problem.features):
+                problem.F(None, x_old, problem.b)
+                fraction = problem.step_fraction(secant.array_r, problem.b.array_r)
+            x.axpy(fraction, secant)
         start, factorized = time.perf_counter(), newton.factorizations
         newton.update_pattern()
         converged, its, norm, reason = newton.solve(x)

@@ -18,7 +18,10 @@ Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E 
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
 """
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
+
+from dolfinx import cpp
 
 from .errors import SceneError
 from .feature import Feature
@@ -62,11 +65,30 @@ class Suture(Feature):
         self.a = MaterialNode(solid, self.first_point, self.surfaces[0])
         self.b = None if self.anchored else MaterialNode(solid, self.second_point, self.surfaces[1])
         self.comm = solid.comm
+        self._check_ends(solid)
         self.initial_length = np.linalg.norm(self._ends()[1] - self._ends()[0])
         if self.initial_length == 0:
-            raise SceneError(f"suture {self.name!r}: its two ends are the same node")
+            raise SceneError(f"suture {self.name!r}: its two ends, first = {self.first_point.tolist()} and second = "
+                             f"{self.second_point.tolist()}, are the same mesh node; move them apart")
         if self.shortening is not None and self.stiffness is None:
             self.stiffness = SUTURE_EA / self.initial_length
+
+    def _check_ends(self, solid):
+        """An end ties the mesh node nearest to its point: a point farther from every node than the
+        largest element is a mistake (a wrong sign, unit or surface), not a node to snap to."""
+        msh = solid.mesh_data.mesh
+        cells = np.arange(msh.topology.index_map(msh.topology.dim).size_local, dtype=np.int32)
+        local = float(cpp.mesh.h(msh._mesh, msh.topology.dim, cells).max()) if len(cells) else 0.0
+        largest = self.comm.allreduce(local, op=MPI.MAX)
+        ends = [("first", self.a, self.first_point, self.surfaces[0])]
+        if self.b is not None:
+            ends.append(("second", self.b, self.second_point, self.surfaces[1]))
+        for key, node, point, surface in ends:
+            if node.distance > largest:
+                where = f"surface {surface!r}" if surface else "the mesh"
+                raise SceneError(f"suture {self.name!r}: {key} = {point.tolist()} is {node.distance:.4g} from the "
+                                 f"nearest node of {where}, farther than the largest element ({largest:.4g}); "
+                                 "give a point on it")
 
     def _ends(self):
         return self.a.position(), (self.second_point if self.anchored else self.b.position())

@@ -48,6 +48,7 @@ Usage: ``/usr/bin/python3 -m meshes.eye --out eye.msh [--sector-deg 180] [--deta
 """
 import argparse
 import dataclasses
+import inspect
 import math
 import numbers
 import time
@@ -571,10 +572,11 @@ def _check_parameters(p):
     check("eye", "n_circ", p["n_circ"], "positive integer")
     if p["sector_deg"] not in _SECTORS:
         raise SceneError(f"eye: sector_deg must be one of {_SECTORS}, got {p['sector_deg']!r}")
-    multiple = 4 if p["sector_deg"] == 360.0 else 8
-    if p["n_circ"] % multiple:
-        raise SceneError(f"eye: n_circ must be a multiple of {multiple} (butterfly cores"
-                         f"{'' if multiple == 4 else ' cut by the symmetry planes'}), got {p['n_circ']}")
+    # The butterfly core's square has n_circ / 4 quadrilaterals a side, and its boundary must have a node
+    # at azimuth 0 (and, in a wedge, on the cut planes): an even number of them.
+    if p["n_circ"] % 8:
+        raise SceneError(f"eye: n_circ must be a multiple of 8 (the butterfly cores have n_circ / 4 quadrilaterals "
+                         f"a side, an even number), got {p['n_circ']}")
     inner = p["choroid_thickness"] + p["retina_thickness"]
     if not inner < CILIARY_THICKNESS:
         raise SceneError(f"eye: choroid_thickness + retina_thickness ({inner}) must be below the ciliary body "
@@ -696,7 +698,7 @@ def build_eye(**parameters):
             of the eye.
         refine: 1 gives 9,820 hexahedra (the seed's eye had 9,862); 2 doubles the elements in every
             direction (78,560).
-        n_circ: sectors of the full circle (default 40 * refine), a multiple of 4 (of 8 in a wedge).
+        n_circ: sectors of the full circle (default 40 * refine), a multiple of 8.
         sector_deg: 360 (whole eye), 180 or 90 (a wedge with the cut planes "cut_0" at azimuth 0
             and "cut_1" at ``sector_deg``, for models symmetric about them).
 
@@ -707,6 +709,10 @@ def build_eye(**parameters):
         SceneError: if a parameter is invalid, or the mesh would have a corner with a scaled
             Jacobian below ``MIN_SCALED_JACOBIAN`` (a detachment gap too large for its elements).
     """
+    known = inspect.signature(eye_geometry).parameters
+    unknown = sorted(set(parameters) - set(known))
+    if unknown:
+        raise SceneError(f"eye: unknown parameter(s) {', '.join(unknown)}; known: {', '.join(known)}")
     eye = eye_geometry(**parameters)
     add_hex_model("eye", eye.nodes, None, None, eye.surfaces, regions=eye.regions)
     return eye.info

@@ -331,7 +331,7 @@ def test_cavity_walls_are_closed(encircled, tired):
     ({"gap": 0.0}, "gap must be a positive number"),
     ({"n_band_width": 2.5}, "n_band_width must be a positive integer"),
     ({"iop": 15}, "unknown parameter"),
-    ({"n_circ": 18}, "n_circ must be a multiple of 4"),
+    ({"n_circ": 18}, "n_circ must be a multiple of 8"),
 ])
 def test_rejects_bad_parameters(options, fragment):
     with pytest.raises(SceneError, match=fragment):

@@ -1,0 +1,222 @@
+"""Invalid scenes and meshes beyond the core's catalogue in tests/test_scenes.py (issue 7): cavities,
+contact, sutures and the buckle's sutures, bands, steps, the eye measures, the eye builders'
+parameters and mesh files.
+
+Each case is run as a user runs it, ``python3 -m eyeball_fenicsx run scene.toml --out DIR`` in a
+child process (a fresh MPI singleton, as in test_scenes.test_console_script_in_a_child_process),
+and must exit 2 with one line ``error: ...`` on stderr that names what is wrong and where, without a
+traceback, having written nothing to DIR but possibly a summary.json with ``"ok": false``.
+
+The cases are shared out over the ranks, each rank running its share in folders of its own, all in
+one module fixture (the catalogue takes half the time on two ranks); each case is then checked in a
+test of its own on every rank.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from mpi4py import MPI
+
+from test_scenes import BLOCK, CAVITY, INVALID, NEO_HOOKE, OCTANT, ROLLERS, assert_one_line_error, write_text
+
+COMM = MPI.COMM_WORLD
+
+# pieces of small scenes (test_scenes has the block of two cells and the coarse sphere octant)
+SOLID = BLOCK + NEO_HOOKE + ROLLERS
+CLOSED = 'symmetry = ["x", "y", "z"]\n'  # the octant's inner surface, closed by its symmetry planes
+PLANE = '{ shape = "plane", point = [0.0, 0.0, 1.1], normal = [0.0, 0.0, -1.0] }'
+EYE_REGIONS = ("cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule")
+EYE_MATERIALS = "".join(f'[materials.{region}]\nmodel = "neo-hooke"\nc10 = 0.05\n' for region in EYE_REGIONS)
+BUCKLED_EYE = '[mesh]\nbuilder = "buckled_eye"\n'
+BUCKLE_MATERIALS = EYE_MATERIALS + '[materials.band]\nmodel = "neo-hooke"\nc10 = 0.5\n'
+
+
+def table(header, **keys):
+    """A TOML array-of-tables entry ``[[header]]`` with its keys (values as TOML text)."""
+    return f"[[{header}]]\n" + "".join(f"{key} = {value}\n" for key, value in keys.items())
+
+
+def contact(**keys):
+    return table("contact", name='"c"', slave='"z1"', **keys)
+
+
+def suture(**keys):
+    keys = {"name": '"s"', "first": "[0.0, 0.0, 1.0]", "second": "[1.0, 1.0, 1.0]", "tension": "0.01", **keys}
+    return table("suture", **{key: value for key, value in keys.items() if value is not None})
+
+
+def eye(parameters):
+    return '[mesh]\nbuilder = "eye"\n' + parameters + EYE_MATERIALS
+
+
+def msh22(names, elements):
+    """An ASCII MSH 2.2 file of the unit cube's 8 nodes: physical names (dim, tag, name) and
+    element lines ("type ntags physical elementary nodes...")."""
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"
+    if names:
+        text += f"$PhysicalNames\n{len(names)}\n" + "".join(f'{d} {t} "{n}"\n' for d, t, n in names)
+        text += "$EndPhysicalNames\n"
+    text += f"$Nodes\n{len(corners)}\n" + "".join(f"{i + 1} {x} {y} {z}\n" for i, (x, y, z) in enumerate(corners))
+    text += f"$EndNodes\n$Elements\n{len(elements)}\n" + "".join(f"{i + 1} {e}\n" for i, e in enumerate(elements))
+    return text + "$EndElements\n"
+
+
+HEXAHEDRON = "5 2 {} {} 1 2 3 4 5 6 7 8"  # physical group, elementary entity
+
+
+def mesh_file(name, text, names):
+    """A case of a scene whose mesh is the file ``name`` holding ``text``."""
+    return f'[mesh]\nfile = "{name}"\n' + NEO_HOOKE, names, {name: text}
+
+
+# id -> (scene text, what the message must name[, {file name: text} written beside the scene]).
+# None of these is in test_scenes.INVALID.
+CASES = {
+    # [[cavity]] and [[injection]]
+    "cavity-unknown-symmetry-plane": (OCTANT + CAVITY + 'symmetry = ["x", "y", "w"]\n',
+                                      ["[[cavity]] #1", "cavity 'vitreous'", "symmetry planes", "['w']"]),
+    "cavity-surface-list-unknown-group": (OCTANT + CAVITY.replace('"inner"', '["inner", "lining"]') + CLOSED,
+                                          ["[[cavity]] #1", "surface 'lining'", "'sym_x'"]),
+    "cavity-surface-list-not-closed": (OCTANT + CAVITY.replace('"inner"', '["inner", "outer"]'),
+                                       ["cavity 'vitreous'", "['inner', 'outer'] is not closed", "symmetry"]),
+    "cavity-empty-surface-list": (OCTANT + CAVITY.replace('"inner"', "[]") + CLOSED,
+                                  ["[[cavity]] #1", "cavity 'vitreous'", "non-empty list", "got []"]),
+    "cavity-duplicate-name": (OCTANT + CAVITY + CLOSED + CAVITY + CLOSED,
+                              ["[[cavity]] #2", "'vitreous' is used twice"]),
+    "cavity-pressurize-not-bool": (OCTANT + CAVITY + CLOSED + 'pressurize = "yes"\n',
+                                   ["[[cavity]] #1", "pressurize must be true or false", "'yes'"]),
+    "cavity-surface-faces-away": (OCTANT + CAVITY.replace('"inner"', '"outer"') + CLOSED,
+                                  ["cavity 'vitreous'", "enclosed by 'outer'", "not positive", "faces the liquid"]),
+    "injection-unknown-cavity": (OCTANT + CAVITY + CLOSED + table("injection", cavity='"aqueous"', volume="0.1"),
+                                 ["[[injection]] #1", "cavity 'aqueous'", "['vitreous']"]),
+    # [[contact]]
+    "contact-slave-is-master": (SOLID + contact(master='"z1"'),
+                                ["[[contact]] #1", "contact 'c'", "slave and master are both 'z1'"]),
+    "contact-unknown-master": (SOLID + contact(master='"sclera_outer"'),
+                               ["[[contact]] #1", "surface 'sclera_outer'", "'z1'"]),
+    "contact-master-and-rigid": (SOLID + contact(master='"x1"', rigid=PLANE),
+                                 ["[[contact]] #1", "exactly one of master", "or rigid"]),
+    "contact-unknown-rigid-shape": (SOLID + contact(rigid='{ shape = "cone", point = [0.0, 0.0, 1.0] }'),
+                                    ["[[contact]] #1", "rigid.shape", "'cone'", "'plane'"]),
+    "contact-plane-zero-normal": (SOLID + contact(rigid=PLANE.replace("-1.0", "0.0")),
+                                  ["[[contact]] #1 rigid", "plane normal", "non-zero", "[0.0, 0.0, 0.0]"]),
+    "contact-sphere-negative-radius": (
+        SOLID + contact(rigid='{ shape = "sphere", center = [0.5, 0.5, 3.0], radius = -2.0 }'),
+        ["[[contact]] #1 rigid", "radius must be positive, got -2.0"]),
+    "contact-penalty-negative": (SOLID + contact(rigid=PLANE, penalty="-1.0e3"),
+                                 ["[[contact]] #1", "penalty must be positive, got -1000.0"]),
+    "contact-penalty-bool": (SOLID + contact(rigid=PLANE, penalty="true"),
+                             ["[[contact]] #1", "penalty must be a finite number, got True"]),
+    "contact-displacement-two-components": (
+        SOLID + contact(rigid=PLANE.replace(" }", ", displacement = [0.0, -0.1] }")),
+        ["[[contact]] #1 rigid", "displacement must be a list of 3 finite numbers", "[0.0, -0.1]"]),
+    "contact-duplicate-name": (SOLID + contact(rigid=PLANE) + contact(rigid=PLANE.replace("1.1", "1.2")),
+                               ["[[contact]] #2", "contact name 'c' is used twice"]),
+    # [[suture]] and [buckle_sutures]
+    "suture-tension-and-shortening": (SOLID + suture(shortening="0.1"),
+                                      ["[[suture]] #1", "suture 's'", "exactly one of tension or shortening"]),
+    "suture-negative-stiffness": (SOLID + suture(tension=None, shortening="0.1", stiffness="-5.0"),
+                                  ["[[suture]] #1", "stiffness must be positive, got -5.0"]),
+    "suture-far-from-its-surface": (SOLID + suture(first="[0.0, 0.0, 30.0]", first_surface='"z1"'),
+                                    ["suture 's'", "first = [0.0, 0.0, 30.0]", "surface 'z1'", "largest element"]),
+    "buckle-sutures-without-buckled-eye": (SOLID + "[buckle_sutures]\ntension = 0.1\n",
+                                           ["[buckle_sutures]", 'builder = "buckled_eye"']),
+    "buckle-sutures-zero-count": (BUCKLED_EYE + BUCKLE_MATERIALS + "[buckle_sutures]\ncount = 0\ntension = 0.1\n",
+                                  ["[buckle_sutures]", "count must be a positive integer, got 0"]),
+    "buckle-sutures-name-clash": (BUCKLED_EYE + BUCKLE_MATERIALS + suture(name='"suture_45_back"')
+                                  + "[buckle_sutures]\ntension = 0.1\n",
+                                  ["[buckle_sutures]", "'suture_45_back' is used twice", "[[suture]]"]),
+    # [[band]]
+    "band-unknown-region": (SOLID + table("band", region='"band"', reduction="1.0"),
+                            ["[[band]] #1", "region 'band'", "[materials.band]"]),
+    "band-negative-reduction": (SOLID + table("band", region='"solid"', reduction="-1.0"),
+                                ["[[band]] #1", "band 'solid'", "reduction", "must not be negative", "-1.0"]),
+    "band-zero-axis": (SOLID + table("band", region='"solid"', reduction="0.1", axis="[0.0, 0.0, 0.0]"),
+                       ["[[band]] #1", "axis must be a non-zero vector", "[0.0, 0.0, 0.0]"]),
+    # [[step]] and [eye]
+    "step-duplicate-names": (SOLID + table("step", name='"a"') + table("step", name='"a"'),
+                             ["[[step]] names must be unique", "['a', 'a']"]),
+    "step-unknown-on-suture": (SOLID + table("step", name='"a"') + suture(step='"b"'),
+                               ["[[suture]] #1", "step 'b'", "['a']"]),
+    "eye-vitreous-unknown-cavity": (OCTANT + CAVITY + CLOSED + '[eye]\nvitreous = "aqueous"\n',
+                                    ["[eye]", "vitreous = 'aqueous'", "['vitreous']"]),
+    # [mesh] builder = "eye" / "buckled_eye": parameter checks, before any meshing
+    "buckled-eye-negative-band-width": (BUCKLED_EYE + "band_width = -2.5\n" + BUCKLE_MATERIALS,
+                                        ["[mesh]", "band_width must be a positive number, got -2.5"]),
+    "buckled-eye-band-beyond-the-sclera": (BUCKLED_EYE + "band_position = 30.0\n" + BUCKLE_MATERIALS,
+                                           ["[mesh]", "must rest on the sclera", "band_position 30.0"]),
+    "eye-sector-out-of-range": (eye("sector_deg = 45\n"), ["[mesh]", "sector_deg must be one of", "45"]),
+    "eye-n-circ-too-small": (eye("n_circ = 4\n"), ["[mesh]", "n_circ must be a multiple of 8", "got 4"]),
+    "eye-detachment-beyond-the-ora": (
+        eye("detachment = { polar_deg = 0.0, extent_deg = 170.0, gap = 0.1 }\n"),
+        ["[mesh]", "detachment must lie in the retina", "0.0 + 170.0"]),
+    "eye-unknown-parameter": (eye("axial_lenght = 24.0\n"),
+                              ["[mesh]", "unknown parameter(s) axial_lenght", "axial_length"]),
+    # [mesh] file = ...: files gmsh cannot use
+    "mesh-not-gmsh": mesh_file("junk.msh", "solid 8 hexahedra\n", ["[mesh]", "junk.msh", "gmsh cannot read it"]),
+    "mesh-unnamed-physical-group": mesh_file("unnamed.msh", msh22([], [HEXAHEDRON.format(1, 1)]),
+                                             ["[mesh]", "unnamed.msh", "volume physical group 1 has no name"]),
+    "mesh-volume-in-no-group": mesh_file("loose.msh", msh22([(3, 1, "solid")], [HEXAHEDRON.format(1, 1),
+                                                                               HEXAHEDRON.format(0, 2)]),
+                                         ["[mesh]", "loose.msh", "volume entity 2", "in no physical group"]),
+}
+
+
+def run_case(case, folder):
+    """Write a case's files into ``folder`` and run the command line on it in a child process."""
+    text, _, *files = CASES[case]
+    os.makedirs(folder)
+    for name, content in {"scene.toml": text, **(files[0] if files else {})}.items():
+        write_text(os.path.join(folder, name), content)
+    out = os.path.join(folder, "out")
+    # a fresh MPI singleton: none of the OMPI_* / PMIX_* variables of the mpirun that started us
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
+    child = subprocess.run([sys.executable, "-m", "eyeball_fenicsx", "run", os.path.join(folder, "scene.toml"),
+                            "--out", out], env=env, capture_output=True, text=True, timeout=120)
+    written = sorted(os.listdir(out)) if os.path.isdir(out) else []
+    ok = None
+    if "summary.json" in written:
+        with open(os.path.join(out, "summary.json")) as f:
+            ok = json.load(f).get("ok")
+    return {"code": child.returncode, "stderr": child.stderr, "written": written, "summary_ok": ok}
+
+
+@pytest.fixture(scope="module")
+def outcomes(request, tmp_path_factory):
+    """The outcome of every case selected (``-k``), on every rank; each rank runs its share."""
+    selected = sorted({item.callspec.params["case"] for item in request.session.items
+                       if item.module is sys.modules[__name__] and hasattr(item, "callspec")})
+    base = tmp_path_factory.mktemp(f"catalogue_rank{COMM.rank}")
+    mine = {}
+    for case in selected[COMM.rank::COMM.size]:
+        try:
+            mine[case] = run_case(case, os.path.join(base, case))
+        except Exception as error:  # reported by the case's test; no rank is left waiting
+            mine[case] = {"failure": repr(error)}
+    return {case: outcome for share in COMM.allgather(mine) for case, outcome in share.items()}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_invalid_case_exits_2(case, outcomes):
+    outcome = outcomes[case]
+    assert "failure" not in outcome, outcome
+    err = outcome["stderr"]
+    assert outcome["code"] == 2, err
+    assert_one_line_error(err)
+    for name in CASES[case][1]:
+        assert name in err
+    assert err.count("scene.toml") == 1  # the scene file is named once, whatever failed
+    # nothing written but, possibly, a summary that says the run failed
+    assert set(outcome["written"]) <= {"summary.json"}
+    if outcome["written"]:
+        assert outcome["summary_ok"] is False
+
+
+def test_the_catalogue_is_new():
+    """No case repeats one of the core's (tests/test_scenes.py)."""
+    core = {text for text, _ in INVALID.values()}
+    assert len(CASES) >= 24
+    assert not [case for case, (text, *_) in CASES.items() if text in core]
