@@ -1,7 +1,10 @@
-"""Pictures of the eye model: its meridional section with the tissues coloured."""
+"""Pictures of the eye model: its meridional section with the tissues coloured or its stress,
+and the eye measures over the steps of a run. Files appear atomically (output.py)."""
 import numpy as np
 
 from dolfinx import cpp
+
+from .output import plot_curves, save_figure_atomic
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
 TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body": "sienna", "choroid": "firebrick",
@@ -87,7 +90,7 @@ def eye_section_png(mesh_data, path, title=None):
     if title:
         axes.set_title(title)
     figure.tight_layout()
-    figure.savefig(path, dpi=150)
+    save_figure_atomic(figure, path)
     plt.close(figure)
 
 
@@ -101,7 +104,7 @@ def stress_section_png(solid, mises, path, title=None):
         path: the .png file to write.
     """
     polygons, _, values = meridional_section(solid.mesh_data, solid=solid, field=mises)
-    if polygons is None:
+    if polygons is None or not len(polygons):  # not rank 0, or no face in the plane y = 0
         return
     import matplotlib
     matplotlib.use("Agg")
@@ -119,5 +122,23 @@ def stress_section_png(solid, mises, path, title=None):
     if title:
         axes.set_title(title)
     figure.tight_layout()
-    figure.savefig(path, dpi=150)
+    save_figure_atomic(figure, path)
     plt.close(figure)
+
+
+def eye_measures_png(steps, path):
+    """Curves of the scalar eye measures over the steps of a run (one plot a measure, one
+    point a step, in the order of ``steps``). Call on one rank.
+
+    Args:
+        steps: summary.json's "steps"; those without an "eye" entry are left out.
+        path: the .png file to write.
+    """
+    from .sweep import flatten
+    steps = [step for step in steps if "eye" in step]
+    if not steps:
+        return
+    rows = [flatten(step["eye"]) for step in steps]
+    names = [name for name in rows[0] if all(isinstance(row.get(name), float) for row in rows)]
+    plot_curves(path, list(range(1, len(rows) + 1)), {name: [row[name] for row in rows] for name in names}, "step",
+                [step["name"] for step in steps])

@@ -8,17 +8,61 @@
   Eye, 2000, ch. 17; schematic-eye values range from -2.5 to -3 D/mm);
 * ``iop_mmHg``: the vitreous pressure (1 MPa = 7500.62 mmHg);
 * ``max_mises_MPa``: the largest von Mises stress (element midpoints) per tissue.
+
+With a buckle (the name of its inner surface, "band_inner" or "tire_inner"):
+
+* ``buckle_height_mm``: how deep the buckle indents the sclera. Over the nodes of the sclera's
+  outer surface ("sclera_outer": in meshes/eye.py all of it is on the sphere about the origin,
+  from the optic nerve to the limbus, so no node needs leaving out) the radial displacement
+  u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes *around* the
+  buckle minus the least u_r of the nodes *under* it. Under: the reference polar angle (seen
+  from the origin) within the polar range of the buckle's inner surface; around: more than
+  one buckle width (in polar angle) from that range. The minimum is the deepest point of the
+  indentation, for an encircling band and a segmental tire alike; the mean around it takes
+  out what moves the whole globe (its inflation by the IOP, its elongation). Zero in the
+  reference state and under any uniform expansion of the globe. A globe that inflates
+  unevenly reads a few hundredths of a mm without any indentation (-0.02 to -0.04 mm for the
+  buckled eye's sclera, not touching its band, at 15 mmHg: the thin equator bulges most), far
+  below the 0.5 to 1.5 mm of a buckle (docs/published_figures.md, section 4).
+
+With a detachment (the retina's outer surface "retina_outer" and the choroid's inner surface
+"choroid_inner", the two faces of the subretinal gap of meshes/eye.py):
+
+* ``retina_gap_max_mm``: the largest gap, in the current configuration. The gap at a node of
+  the retina is its distance from the tangent plane of the choroid at the choroid's nearest
+  node, (x_retina - x_choroid) . n (n the choroid's outward unit normal there, the
+  area-weighted mean of its facets' current normals; negative where the retina has passed
+  the choroid). Unlike the distance between the two nodes it does not grow when the retina
+  slides along the choroid; on the curved wall it errs by s^2 / 2R for a slide s (7e-3 mm
+  for s = 0.4 mm, R = 11.5 mm). Nodes the two surfaces share (the detachment's rim) have
+  gap 0. The choroid's nodes are gathered on every rank (a surface, not the mesh).
+* ``detached_area_mm2``: the reference area of "retina_outer" where the gap, interpolated
+  bilinearly from the nodes, exceeds ``DETACHED_GAP`` (integrated at 7 x 7 Gauss points per
+  facet). It is the area *of the model*: a half model (a wedge) reports half of the eye's.
 """
 import numpy as np
+import ufl
 from mpi4py import MPI
+from petsc4py import PETSc
+from scipy.spatial import cKDTree
 
-from dolfinx import fem
+from dolfinx import fem, la
+from dolfinx.fem.petsc import assemble_vector
 
+from .errors import SceneError
 from .feature import Feature
 from .formulation import MaterialNode
 
 MMHG_PER_MPA = 7500.62
 DIOPTRES_PER_MM = -2.7
+# A retina more than this from the choroid is detached: a tenth of the 0.1 mm gaps of the
+# detachments we model (a retina in contact with the choroid has a gap <= 0: the penetration).
+DETACHED_GAP = 0.01
+
+
+def _polar_angle(X):
+    """Polar angle (rad) of points seen from the origin, from the posterior pole (-z)."""
+    return np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0))
 
 
 class EyeMeasures(Feature):
@@ -28,16 +72,27 @@ class EyeMeasures(Feature):
         anterior, posterior: reference points near the corneal apex and the posterior pole
             (the nearest nodes of ``anterior_surface`` / ``posterior_surface`` are used).
         vitreous: the cavity feature whose pressure is the IOP (or None).
+        buckle: the buckle's inner surface, for ``buckle_height_mm`` on ``sclera`` (or None).
+        retina, choroid: the two faces of a detachment's subretinal gap, for
+            ``retina_gap_max_mm`` and ``detached_area_mm2`` (both or neither).
     """
 
     section = "eye"
     name = None  # the report is the section itself
 
-    def __init__(self, anterior, posterior, anterior_surface=None, posterior_surface=None, vitreous=None):
+    def __init__(self, anterior, posterior, anterior_surface=None, posterior_surface=None, vitreous=None,
+                 buckle=None, sclera="sclera_outer", retina=None, choroid=None):
         self.points = (anterior, posterior)
         self.surfaces = (anterior_surface, posterior_surface)
         self.vitreous = vitreous
-        self.extra = []  # functions adding measures (buckle height, retina gap, ...)
+        if (retina is None) != (choroid is None):
+            raise SceneError("give both retina and choroid (the faces of the subretinal gap), or neither")
+        self.buckle, self.sclera, self.retina, self.choroid = buckle, sclera, retina, choroid
+        self.extra = []  # functions adding measures
+        if buckle is not None:
+            self.extra.append(self._buckle_height)
+        if retina is not None:
+            self.extra.append(self._detachment)
 
     def setup(self, solid):
         self.solid = solid
@@ -47,6 +102,80 @@ class EyeMeasures(Feature):
         self.mises = fem.Function(fem.FunctionSpace(msh, ("DG", 0)))
         self._mises_expr = None  # built on first use: the materials may still change in setup
         self.num_cells = msh.topology.index_map(msh.topology.dim).size_local
+        if self.buckle is not None or self.retina is not None:
+            self._setup_nodal(solid)
+
+    def _setup_nodal(self, solid):
+        """Nodal displacements (a P1 interpolant of u) and the surfaces' nodes."""
+        md = solid.mesh_data
+        self.V = fem.VectorFunctionSpace(md.mesh, ("Lagrange", 1))
+        self.owned = self.V.dofmap.index_map.size_local
+        self.displacement = fem.Function(self.V)
+        self._u_expr = fem.Expression(solid.u, self.V.element.interpolation_points())
+        self.X = self.V.tabulate_dof_coordinates()[: self.owned]
+        comm = solid.comm
+        if self.buckle is not None:
+            buckle = _polar_angle(self.X[self._surface_nodes(self.buckle)])
+            lo = comm.allreduce(buckle.min() if len(buckle) else np.inf, op=MPI.MIN)
+            hi = comm.allreduce(buckle.max() if len(buckle) else -np.inf, op=MPI.MAX)
+            self.sclera_nodes = self._surface_nodes(self.sclera)
+            polar = _polar_angle(self.X[self.sclera_nodes])
+            self.under = (polar >= lo - 1e-9) & (polar <= hi + 1e-9)
+            self.around = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a buckle width away
+            under, around = comm.allreduce(np.array([self.under.sum(), self.around.sum()]), op=MPI.SUM)
+            if not under or not around:
+                raise SceneError(f"[eye]: {self.sclera!r} has {under} node(s) under the buckle {self.buckle!r} "
+                                 f"(polar angles {np.degrees(lo):.1f} to {np.degrees(hi):.1f} deg from the "
+                                 f"posterior pole) and {around} around it: is the buckle on that surface?")
+        if self.retina is not None:
+            self.retina_nodes = self._surface_nodes(self.retina)
+            self.choroid_nodes = self._surface_nodes(self.choroid)
+            v = ufl.TestFunction(self.V)
+            self._normals = fem.form(ufl.inner(solid.current_normal_area(), v) * solid.ds(md.surfaces[self.choroid]))
+            self.gap = fem.Function(self.V)  # its x component: the gap at the retina's nodes
+            ds = ufl.Measure("ds", domain=md.mesh, subdomain_data=md.facet_tags,
+                             subdomain_id=md.surfaces[self.retina], metadata={"quadrature_degree": 12})
+            self._detached = fem.form(ufl.conditional(ufl.gt(self.gap[0], DETACHED_GAP), 1.0, 0.0) * ds)
+
+    def _surface_nodes(self, surface):
+        """The owned nodes (blocks of V) of a surface, wherever its facets are (collective)."""
+        tdim = self.solid.mesh_data.mesh.topology.dim
+        marker = fem.Function(self.V)
+        nodes = fem.locate_dofs_topological(self.V, tdim - 1, self.solid.mesh_data.facets(surface))
+        marker.x.array.reshape(-1, 3)[nodes, 0] = 1.0
+        marker.x.scatter_reverse(la.ScatterMode.add)  # a ghost facet's nodes reach their owners
+        return np.flatnonzero(marker.x.array.reshape(-1, 3)[: self.owned, 0] > 0)
+
+    def _positions(self):
+        """Current positions of the owned nodes."""
+        self.displacement.interpolate(self._u_expr)
+        return self.X + self.displacement.x.array.reshape(-1, 3)[: self.owned]
+
+    def _buckle_height(self):
+        X = self.X[self.sclera_nodes]
+        radial = np.linalg.norm(self._positions()[self.sclera_nodes], axis=1) - np.linalg.norm(X, axis=1)
+        comm = self.solid.comm
+        around = comm.allreduce(np.array([radial[self.around].sum(), self.around.sum()]), op=MPI.SUM)
+        deepest = comm.allreduce(radial[self.under].min() if self.under.any() else np.inf, op=MPI.MIN)
+        return {"buckle_height_mm": float(around[0] / around[1] - deepest)}
+
+    def _detachment(self):
+        x = self._positions()
+        b = assemble_vector(self._normals)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        normals = b.array_r.reshape(-1, 3)[self.choroid_nodes]
+        b.destroy()
+        comm = self.solid.comm
+        choroid = comm.allgather((x[self.choroid_nodes], normals / np.linalg.norm(normals, axis=1)[:, None]))
+        xc, nc = (np.concatenate([c[k] for c in choroid]) for k in (0, 1))
+        xr = x[self.retina_nodes]
+        _, nearest = cKDTree(xc).query(xr)
+        gap = np.einsum("ij,ij->i", xr - xc[nearest], nc[nearest])
+        self.gap.x.array[:] = 0.0
+        self.gap.x.array.reshape(-1, 3)[self.retina_nodes, 0] = gap
+        self.gap.x.scatter_forward()
+        return {"retina_gap_max_mm": float(comm.allreduce(gap.max() if len(gap) else -np.inf, op=MPI.MAX)),
+                "detached_area_mm2": float(comm.allreduce(fem.assemble_scalar(self._detached), op=MPI.SUM))}
 
     def report(self):
         length = float(np.linalg.norm(self.ends[0].position() - self.ends[1].position()))

@@ -1,7 +1,8 @@
-"""What a run writes: probes, field output (XDMF for ParaView) and summary.json.
+"""What a run writes: probes, field output (XDMF for ParaView), summary.json and pictures.
 
-Every file appears atomically: summary.json is written to a temporary name and renamed;
-the XDMF/HDF5 pair is written in a hidden folder and moved into place when closed.
+Every file appears atomically: summary.json and the PNG pictures are written to a temporary
+name and renamed; the XDMF/HDF5 pair is written in a hidden folder and moved into place when
+closed.
 """
 import json
 import os
@@ -98,3 +99,37 @@ def write_text_atomic(path, text, comm=MPI.COMM_WORLD):
 def write_json_atomic(path, data, comm=MPI.COMM_WORLD):
     """Write JSON atomically (see ``write_text_atomic``); NaN is refused, never written."""
     write_text_atomic(path, json.dumps(data, indent=1, allow_nan=False) if comm.rank == 0 else "", comm)
+
+
+def save_figure_atomic(figure, path, dpi=150):
+    """Save a matplotlib figure as a PNG under a temporary name, then rename it into place
+    (call on the one rank that draws)."""
+    tmp = f"{path}.tmp{os.getpid()}.png"
+    figure.savefig(tmp, dpi=dpi)
+    os.replace(tmp, path)
+
+
+def plot_curves(path, x, curves, xlabel, xticklabels=None):
+    """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank).
+
+    Args:
+        curves: {title: y values}.
+        xticklabels: labels of the x values (step names), or None for numbers.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    columns = min(3, len(curves))
+    lines = -(-len(curves) // columns)
+    figure, axes = plt.subplots(lines, columns, figsize=(4 * columns, 3 * lines), squeeze=False)
+    for ax, (name, y) in zip(axes.ravel(), curves.items()):
+        ax.plot(x, y, "o-")
+        ax.set_xlabel(xlabel)
+        ax.set_title(name, fontsize=9)
+        if xticklabels is not None:
+            ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
+    for ax in axes.ravel()[len(curves):]:
+        ax.axis("off")
+    figure.tight_layout()
+    save_figure_atomic(figure, path, dpi=110)
+    plt.close(figure)

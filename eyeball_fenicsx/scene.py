@@ -10,15 +10,24 @@ Python API::
 
 Only what the scene holds is assembled: a scene without cavities or contact solves
 exactly the bare hyperelastic system.
+
+A scene with eye measures (an ``EyeMeasures`` feature: the ``[eye]`` table of a scene file)
+also draws, into the output folder, ``section_<step>.png`` after each step (the deformed
+meridional section coloured by von Mises stress) and ``eye_measures.png`` at the end (the
+scalar eye measures over the steps).
 """
 import dataclasses
+import os
+import re
 import time
 
 from mpi4py import MPI
 
 from .errors import ConvergenceError, SceneError
+from .eye import eye_measures_png, stress_section_png
 from .formulation import MixedSolid
 from .loads import Dirichlet
+from .measures import EyeMeasures
 from .output import FieldOutput, Probes, write_json_atomic
 from .problem import Problem
 from .solver import NewtonSolver, SolverSettings, run_step
@@ -79,6 +88,7 @@ class Scene:
                    "dofs": self.problem.n_global + self.problem.m, "element": self.solid.element,
                    "wall_s": 0.0, "steps": []}
         fields = FieldOutput(self.solid, out_dir) if out_dir else None
+        eye = next((f for f in self.features if isinstance(f, EyeMeasures)), None) if out_dir else None
         try:
             for index, step in enumerate(self.steps):
                 entry = {"name": step.name, "increments": []}
@@ -97,6 +107,10 @@ class Scene:
                         fields.write(float(index + 1))
                 entry["increments"] = [dataclasses.asdict(i) for i in done]
                 entry.update(self.measure())
+                if eye:  # its stress is that of this state: measure() just updated it
+                    picture = os.path.join(out_dir, "section_" + re.sub(r"[^\w.-]+", "_", step.name) + ".png")
+                    stress_section_png(self.solid, eye.mises, picture,
+                                       title=f"{self.name}, step {step.name}: von Mises stress (MPa)")
                 if out_dir:
                     summary["wall_s"] = time.perf_counter() - start
                     write_json_atomic(f"{out_dir}/summary.json", summary, comm)
@@ -104,6 +118,8 @@ class Scene:
             summary["wall_s"] = time.perf_counter() - start
             if fields:
                 fields.close()
+            if eye and comm.rank == 0:
+                eye_measures_png(summary["steps"], os.path.join(out_dir, "eye_measures.png"))
             if out_dir:
                 write_json_atomic(f"{out_dir}/summary.json", summary, comm)
         return summary

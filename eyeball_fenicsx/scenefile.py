@@ -19,7 +19,13 @@ Extensions beyond the contract (documented in README.md):
   ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
 * ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
-  ``posterior_surface``): the eye measures written under "eye" in summary.json;
+  ``posterior_surface``): the eye measures written under "eye" in summary.json
+  (eyeball_fenicsx/measures.py), and the pictures ``section_<step>.png`` and
+  ``eye_measures.png`` in the output folder; optional measures, each only when its keys are
+  given: ``buckle`` (the buckle's inner surface, "band_inner" or "tire_inner") with
+  ``sclera`` (default "sclera_outer") for ``buckle_height_mm``, and ``retina`` and ``choroid``
+  (the faces of the subretinal gap, "retina_outer" and "choroid_inner") for
+  ``retina_gap_max_mm`` and ``detached_area_mm2``;
 * ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (meshes/eye.py, band.py, buckled_eye.py);
 * ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``tension`` or ``shortening``,
   ``stiffness``, ``step``): sutures generated from the buckled eye's geometry, each tying a
@@ -349,16 +355,24 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
             features.append(Suture(point["name"], point["sclera"], point["buckle"], **ends, **pull))
     if "eye" in data:
         t = _Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
-                                                   "posterior_surface"})
+                                                   "posterior_surface", "buckle", "sclera", "retina", "choroid"})
         vitreous = t.get("vitreous", "string")
         if vitreous is not None and vitreous not in cavities:
             raise t.error(f"vitreous = {vitreous!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
+        if t.has("sclera") and not t.has("buckle"):
+            raise t.error("sclera is the surface under the buckle: give buckle too (its inner surface)")
         ends = {key: t.get(key, "string", default) for key, default in
                 (("anterior_surface", "cornea_outer"), ("posterior_surface", "vitreous_wall"))}
-        features.append(EyeMeasures(t.get("anterior", "vector", [0.0, 0.0, 1e3]),
-                                    t.get("posterior", "vector", [0.0, 0.0, -1e3]),
-                                    vitreous=cavities.get(vitreous), **ends))
-        surfaces_used.extend((n, t.where) for n in ends.values())
+        surfaces = {key: t.get(key, "string") for key in ("buckle", "retina", "choroid")}
+        if surfaces["buckle"]:
+            surfaces["sclera"] = t.get("sclera", "string", "sclera_outer")
+        try:
+            features.append(EyeMeasures(t.get("anterior", "vector", [0.0, 0.0, 1e3]),
+                                        t.get("posterior", "vector", [0.0, 0.0, -1e3]),
+                                        vitreous=cavities.get(vitreous), **ends, **surfaces))
+        except SceneError as error:  # the measures' own checks: retina and choroid together
+            raise t.error(str(error)) from None
+        surfaces_used.extend((n, t.where) for n in [*ends.values(), *surfaces.values()] if n)
     contacts = set()
     for t, where in _array(data, "contact", path):
         t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"})

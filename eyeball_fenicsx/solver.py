@@ -20,6 +20,7 @@ the converged answer (the residual tolerances decide it, as before):
   residual ``POLISH`` times below the tolerance (or a chord step that no longer contracts, at
   round-off), which costs a triangular solve or two and keeps the answer Newton's.
 """
+import contextlib
 import dataclasses
 import time
 
@@ -40,6 +41,7 @@ DEFAULT_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
     "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
 }
+CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
 _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
@@ -86,11 +88,11 @@ class NewtonSolver:
         if any(f.limits_steps for f in problem.features):
             # the step limit at contact onset already shortens the Newton step; a backtracking
             # line search would take a fraction of that again (a shortened Newton step decreases
-            # the residual less than its sufficient-decrease test asks), and crawl
+            # the residual less than its sufficient-decrease test asks), and crawl; and each onset
+            # costs an iteration, so an increment where many nodes close needs more of them
             defaults["snes_linesearch_type"] = "basic"
-        for key, value in defaults.items():
-            if not opts.hasName(prefix + key):
-                opts[prefix + key] = value
+            defaults["snes_max_it"] = CONTACT_MAX_IT
+        self.prefix, self.defaults = prefix, defaults
         self.choose_factorization = not opts.hasName(prefix + "pc_type")  # else the user's
         self.divergence = PETSc.Options(prefix).getReal("snes_divergence_tolerance", 1e4)
         self.reuse_contraction = SolverSettings.reuse_contraction
@@ -107,11 +109,27 @@ class NewtonSolver:
         self.factorizations = 0
         snes.setMonitor(lambda snes, its, norm: self.residual_norms.append(norm))
 
+    @contextlib.contextmanager
+    def _our_defaults(self):
+        """Our defaults in PETSc's options database while PETSc reads it (options, factorization),
+        and out of it again: left there, they would be the next solver's user options (a scene
+        without contact would give its line search to a scene with contact in the same process)."""
+        opts = PETSc.Options()
+        added = [key for key in self.defaults if not opts.hasName(self.prefix + key)]
+        for key in added:
+            opts[self.prefix + key] = self.defaults[key]
+        try:
+            yield
+        finally:
+            for key in added:
+                opts.delValue(self.prefix + key)
+
     def _set_from_options(self):
         """Read the options; ``snes_max_it`` counts the steps with a new tangent, and the chord
         steps come on top (each cuts the residual by 1 / reuse_contraction, so they are few)."""
-        self.snes.setFromOptions()
-        self.snes.getKSP().setFromOptions()
+        with self._our_defaults():
+            self.snes.setFromOptions()
+            self.snes.getKSP().setFromOptions()
         self.max_tangents = self.snes.getTolerances()[3]
         self.snes.setTolerances(max_it=self.max_tangents + _CHORD_STEPS)
 
@@ -182,14 +200,16 @@ class NewtonSolver:
         pc = self.snes.getKSP().getPC()
         if pc.getType() != pc_type:
             pc.setType(pc_type)  # drops the old factorization and its symbolic analysis
-            pc.setFromOptions()
+            with self._our_defaults():
+                pc.setFromOptions()
 
     def solve(self, x):
         """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
         self.residual_norms = []
         self.tangents = self.limited_steps = 0
         self.problem.inverted = None
-        self.snes.solve(None, x)
+        with self._our_defaults():  # MUMPS reads its options when it factorizes
+            self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
         norm = self.residual_norms[-1] if self.residual_norms else float("nan")
         converged = reason > 0 and np.isfinite(norm)

@@ -138,5 +138,8 @@ class Suture(Feature):
         return np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs))
 
     def report(self):
+        """Tension, current and initial length, and the force the string puts on its second end
+        (-T e; the first end takes +T e)."""
         return {"tension": float(self.force), "length": float(self.length),
-                "initial_length": float(self.initial_length)}
+                "initial_length": float(self.initial_length),
+                "force_on_second": (-self.force * self.direction).tolist()}

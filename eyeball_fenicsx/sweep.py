@@ -94,26 +94,10 @@ def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
 
 
 def _plot(rows, parameter, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .output import plot_curves
     numeric = [c for c in rows[0] if c not in (parameter, "ok", "wall_s")
                and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
     if any(c.startswith("eye.") for c in numeric):
         numeric = [c for c in numeric if c.startswith("eye.")]
-    if not numeric:
-        return
-    columns = min(3, len(numeric))
-    lines = -(-len(numeric) // columns)
-    fig, axes = plt.subplots(lines, columns, figsize=(4 * columns, 3 * lines), squeeze=False)
-    x = [r[parameter] for r in rows]
-    for ax, name in zip(axes.ravel(), numeric):
-        ax.plot(x, [r[name] for r in rows], "o-")
-        ax.set_xlabel(parameter)
-        ax.set_title(name, fontsize=9)
-    for ax in axes.ravel()[len(numeric):]:
-        ax.axis("off")
-    fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    if numeric:
+        plot_curves(path, [r[parameter] for r in rows], {c: [r[c] for r in rows] for c in numeric}, parameter)

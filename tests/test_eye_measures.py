@@ -1,0 +1,165 @@
+"""The surgeon's measures (eyeball_fenicsx/measures.py) on states whose answers are known, and the
+pictures a scene with an [eye] table draws.
+
+The displacements are prescribed (interpolated into the solid's state), not solved for: the
+measures must read them back. Runs in serial and under ``mpirun -n 2``.
+"""
+import math
+import os
+
+import dolfinx
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from eyeball_fenicsx.errors import SceneError
+from eyeball_fenicsx.formulation import MixedSolid
+from eyeball_fenicsx.materials import NeoHooke
+from eyeball_fenicsx.measures import DETACHED_GAP, EyeMeasures
+from eyeball_fenicsx.mesh import built_mesh
+from eyeball_fenicsx.scenefile import load_scene
+from meshes import buckled_eye, eye
+from test_scenes import read_summary, scene_file
+
+COMM = MPI.COMM_WORLD
+# A detachment centred on the posterior pole: whole rings of faces, its rim on the cap's circle.
+N_CIRC, DETACHMENT = 24, {"polar_deg": 0.0, "extent_deg": 25.0, "gap": 0.1}
+BUCKLED = {"sector_deg": 180.0, "n_circ": 16, "detachment": {"extent_deg": 20.0, "gap": 0.1}}
+REGIONS = ("cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule", "band")
+SCENE = ('name = "buckle-at-rest"\n[mesh]\nbuilder = "buckled_eye"\nsector_deg = 180.0\nn_circ = 16\n'
+         'detachment = { extent_deg = 20.0, gap = 0.1 }\n'
+         + "".join(f'[materials.{region}]\nmodel = "neo-hooke"\nc10 = 0.05\n' for region in REGIONS)
+         + '[[step]]\nname = "at rest"\n[[step]]\nname = "inflate"\n'
+         + "".join(f'[[dirichlet]]\nsurface = "{surface}"\n{components}\n' for surface, components in
+                   (("optic_nerve_end", "x = 0.0\ny = 0.0\nz = 0.0"), ("band_outer", "x = 0.0\ny = 0.0\nz = 0.0"),
+                    ("cut_0", "y = 0.0"), ("cut_1", "y = 0.0")))
+         + '[[pressure]]\nsurface = "vitreous_wall"\nvalue = 0.0005\nstep = "inflate"\n'
+         + '[eye]\nbuckle = "band_inner"\nretina = "retina_outer"\nchoroid = "choroid_inner"\n[solver]\nincrements = 1\n')
+
+
+def prescribe(solid, displacement):
+    """Set the solid's state to the displacement field ``displacement(X)`` (X shape (N, 3)), p = 0."""
+    solid.w.x.array[:] = 0.0
+    solid.w.sub(0).interpolate(lambda x: displacement(x.T).T)
+    solid.w.x.scatter_forward()
+
+
+def polar(X):
+    """Polar angle from the posterior pole, seen from the centre of the eye."""
+    return np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0))
+
+
+@pytest.fixture(scope="module")
+def detached():
+    """The half eye with a pole-centred detachment, and its retina and choroid measures."""
+    data = built_mesh(eye.build_eye, COMM, sector_deg=180.0, n_circ=N_CIRC, detachment=DETACHMENT)
+    solid = MixedSolid(data, {region: NeoHooke(0.05) for region in data.regions})
+    measures = EyeMeasures([0.0, 0.0, 1e3], [0.0, 0.0, -1e3], "cornea_outer", "vitreous_wall",
+                           retina="retina_outer", choroid="choroid_inner")
+    measures.setup(solid)
+    return solid, measures
+
+
+@pytest.fixture(scope="module")
+def buckled(tmp_path_factory):
+    """The half buckled eye of SCENE, run (pictures in its output folder), then its scene."""
+    folder = COMM.bcast(str(tmp_path_factory.mktemp("buckled")) if COMM.rank == 0 else None, root=0)
+    scene = load_scene(scene_file(folder, SCENE), COMM)
+    scene.log = lambda message: None
+    out = os.path.join(folder, "out")
+    scene.run(out)
+    return scene, next(f for f in scene.features if isinstance(f, EyeMeasures)), out
+
+
+def test_detachment_at_rest_and_moved(detached):
+    solid, measures = detached
+    gap = DETACHMENT["gap"]
+    at_rest = measures.report()
+    # The retina is cut free and moved in by the gap along the lines through the centre; the gap is
+    # measured along the choroid's nodal normal, which on a wedge's cut plane sees the facets of one
+    # side only and tilts by half a sector: the gap reads between gap cos(pi / n_circ) and gap.
+    assert gap * math.cos(math.pi / N_CIRC) - 1e-12 <= at_rest["retina_gap_max_mm"] <= gap + 1e-12
+    # Detached area: the spherical cap 2 pi r^2 (1 - cos extent), half of it in the half model; r the
+    # radius of the retina's outer surface, which varies by 1 % over the cap (the sclera thins away
+    # from the pole): its nodes' mean stands for it. The faceted rings lose 1 - sin(t)/t of the
+    # area (t = 2 pi / n_circ: 1.1 %).
+    msh = solid.mesh_data.mesh
+    nodes = dolfinx.cpp.mesh.entities_to_geometry(msh._mesh, 2, solid.mesh_data.facets("retina_outer"), False)
+    radius = np.linalg.norm(msh.geometry.x[np.unique(nodes)], axis=1)
+    radius = COMM.allreduce(radius.sum(), op=MPI.SUM) / COMM.allreduce(len(radius), op=MPI.SUM)
+    cap = math.pi * radius**2 * (1 - math.cos(math.radians(DETACHMENT["extent_deg"])))
+    area = at_rest["detached_area_mm2"]
+    assert area == pytest.approx(cap, rel=0.03)
+    # ... and of the faces of retina_outer, only the ring at the rim, where the gap closes linearly to
+    # zero, is detached in part: more than 1 - DETACHED_GAP / gap of it.
+    ds = solid.ds(solid.mesh_data.surfaces["retina_outer"])
+    whole = COMM.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ds)), op=MPI.SUM)
+    assert (1 - DETACHED_GAP / gap) * whole < area <= whole * (1 + 1e-12)
+
+    # A uniform expansion by 1 + e, with a rigid translation, scales every gap by 1 + e and leaves
+    # the reference area alone.
+    e, shift = 0.05, np.array([0.3, 0.0, -0.2])
+    prescribe(solid, lambda X: e * X + shift)
+    moved = measures.report()
+    assert moved["retina_gap_max_mm"] == pytest.approx((1 + e) * at_rest["retina_gap_max_mm"], rel=1e-9)
+    assert moved["detached_area_mm2"] == pytest.approx(area, rel=1e-12)
+    # Shrunk 20-fold, the gap is 0.005 mm, under DETACHED_GAP: nothing counts as detached.
+    prescribe(solid, lambda X: -0.95 * X)
+    shrunk = measures.report()
+    assert shrunk["retina_gap_max_mm"] == pytest.approx(0.05 * at_rest["retina_gap_max_mm"], rel=1e-9)
+    assert shrunk["detached_area_mm2"] == 0.0
+
+
+def test_buckle_height(buckled):
+    scene, measures, _ = buckled
+    solid = scene.solid
+    layout = buckled_eye.buckle_layout(**BUCKLED)
+    back, front = layout.bodies["band"].theta
+    centre = 0.5 * (back + front)
+    prescribe(solid, lambda X: np.zeros_like(X))
+    assert measures.report()["buckle_height_mm"] == 0.0  # the reference state
+    # The globe inflated uniformly: no indentation.
+    e = 0.02
+    prescribe(solid, lambda X: e * X)
+    assert abs(measures.report()["buckle_height_mm"]) < 1e-12
+    # ... and pushed in by d under the middle half of the band (nodes between the band's back and
+    # front faces, seen from the centre): the indentation is d.
+    d = 0.4
+    prescribe(solid, lambda X: e * X - d * (np.abs(polar(X) - centre) < (front - back) / 4)[:, None]
+              * X / np.linalg.norm(X, axis=1)[:, None])
+    assert measures.report()["buckle_height_mm"] == pytest.approx(d, rel=1e-9)
+
+
+def test_scene_writes_measures_and_pictures(buckled):
+    scene, _, out = buckled
+    summary = read_summary(out)
+    assert [s["name"] for s in summary["steps"]] == ["at rest", "inflate"]
+    rest, inflated = (s["eye"] for s in summary["steps"])
+    # Nothing moves in the first step: the buckle's footprint is not indented, the detachment under
+    # the band has its gap (read on the cut plane: see test_detachment_at_rest_and_moved) and area.
+    assert rest["buckle_height_mm"] == 0.0
+    assert 0.1 * math.cos(math.pi / 16) < rest["retina_gap_max_mm"] <= 0.1 + 1e-12
+    assert rest["detached_area_mm2"] > 0.0
+    # In the second the vitreous pressure pushes the detached retina out onto the choroid (and, with
+    # no contact, on through it): the largest gap and the detached area shrink.
+    assert inflated["retina_gap_max_mm"] < rest["retina_gap_max_mm"]
+    assert inflated["detached_area_mm2"] < rest["detached_area_mm2"]
+    assert np.isfinite(inflated["buckle_height_mm"])
+    if COMM.rank == 0:
+        pictures = {name for name in os.listdir(out) if name.endswith(".png")}
+        assert pictures == {"section_at_rest.png", "section_inflate.png", "eye_measures.png"}
+        assert all(os.path.getsize(os.path.join(out, name)) > 10_000 for name in pictures)
+
+
+@pytest.mark.parametrize("keys, fragment", [
+    ('retina = "retina_outer"', "give both retina and choroid"),
+    ('sclera = "sclera_outer"', "give buckle too"),
+    ('buckle = "tire_inner"', "surface 'tire_inner' is not a surface group"),
+    ('buckle = 3', "buckle must be a non-empty string"),
+])
+def test_eye_keys_are_checked(keys, fragment, tmp_path_factory):
+    folder = COMM.bcast(str(tmp_path_factory.mktemp("invalid")) if COMM.rank == 0 else None, root=0)
+    text = SCENE[: SCENE.index("[eye]")] + f"[eye]\n{keys}\n"
+    with pytest.raises(SceneError, match=fragment) as error:
+        load_scene(scene_file(folder, text), COMM)
+    assert "[eye]" in str(error.value)
