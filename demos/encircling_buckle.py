@@ -38,8 +38,12 @@ from eyeball_fenicsx.scenefile import load_scene
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.environ.get("DEMO_OUT", os.path.join("out", "encircling_buckle"))
 overrides = {"mesh.n_circ": int(os.environ["EYE_N_CIRC"])} if "EYE_N_CIRC" in os.environ else {}
+# DEMO_COMM=self: every rank runs the whole operation alone (reproducible to the last bit)
+comm = MPI.COMM_SELF if os.environ.get("DEMO_COMM") == "self" else MPI.COMM_WORLD
+if comm is MPI.COMM_SELF:
+    out = os.path.join(out, f"rank_{MPI.COMM_WORLD.rank}")
 path = os.path.join(here, "encircling_buckle.toml")
-scene = load_scene(path, overrides=overrides)
+scene = load_scene(path, comm=comm, overrides=overrides)
 summary = scene.run(out)
 # -
 
@@ -64,7 +68,7 @@ hoop_error = abs(held[1] - 2 * hoop_tension) / (2 * hoop_tension)
 # ## What the surgeon asks
 
 # +
-if MPI.COMM_WORLD.rank == 0:
+if comm.rank == 0 and MPI.COMM_WORLD.rank == 0:
     print(f"band: elastic stretch {stretch:.4f}, hoop tension {hoop_tension:.4f} N (Laplace) against "
           f"{held[1] / 2:.4f} N (contact {contact[1]:.4f} N less sutures {-sutures[1]:.4f} N, halved): "
           f"{100 * hoop_error:.1f} %; x-z balance {balance_error:.1e}")

@@ -19,8 +19,12 @@ DEMOS = {
     # eye is back at its IOP and axial length (to the solver's tolerance)
     "eye_at_rest.py": ({"EYE_N_CIRC": "16"}, [("iop_error", 0.01), ("back_to_rest", 1e-6)]),
     # the encircling buckle's three steps on a coarse eye: contact and sutures hold the band, exactly
-    # along x and z, and along y to Laplace's law for its hoop tension (2.9 % on this mesh)
-    "encircling_buckle.py": ({"EYE_N_CIRC": "16"}, [("balance_error", 1e-6), ("hoop_error", 0.05)]),
+    # along x and z, and along y to Laplace's law for its hoop tension (3.0 % on this mesh). Each rank
+    # runs it alone: two-rank MUMPS factorizations are not bitwise reproducible (dynamic scheduling),
+    # and on this coarse eye the round-off decides whether band nodes chatter at contact; about one
+    # two-rank run in four stalled in the suture step (issue 6)
+    "encircling_buckle.py": ({"EYE_N_CIRC": "16", "DEMO_COMM": "self"},
+                             [("balance_error", 1e-6), ("hoop_error", 0.05)]),
 }
 
 
