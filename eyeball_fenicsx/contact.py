@@ -496,12 +496,13 @@ class _ContactFeature(Feature):
         force = np.abs(residual[self.slave_dofs]).max(initial=0.0)
         depth = self.solid.comm.allreduce(force, op=MPI.MAX) / self.alpha[node] \
             + ONSET_TOLERANCE * np.sqrt(self.slave.area[node])
-        now, new = self._gaps(du, 0.0) + depth, self._gaps(du, 1.0) + depth
+        gaps = self._gaps_along(du)
+        now, new = gaps(0.0) + depth, gaps(1.0) + depth
         closing = (now > depth) & (new < 0)
         lo, hi, f_lo, f_hi = np.zeros(len(node)), np.ones(len(node)), now, new
         for _ in range(ONSET_ITERATIONS if self.solid.comm.allreduce(closing.any(), op=MPI.LOR) else 0):
             trial = np.where(closing, lo + (hi - lo) * f_lo / (f_lo - f_hi), 1.0)
-            f = self._gaps(du, trial) + depth
+            f = gaps(trial) + depth
             below = f < 0
             f_lo, lo = np.where(below, 0.5 * f_lo, f), np.where(below, lo, trial)  # Illinois: halve the
             f_hi, hi = np.where(below, f, 0.5 * f_hi), np.where(below, trial, hi)  # end that stays
@@ -610,15 +611,19 @@ class ContactPair(_ContactFeature):
         """The slave nodes that have a gap: those that project on a segment."""
         return np.flatnonzero(self.segment >= 0)
 
-    def _gaps(self, du, fraction):
-        """Gaps of ``gap_nodes`` at the state changed by fraction * du (fraction: a number, or
-        one per node)."""
+    def _gaps_along(self, du):
+        """The gaps of ``gap_nodes`` at the state changed by fraction * du, as a function of
+        fraction (a number, or one per node); the master's positions and change are gathered
+        once (collective)."""
         node = self.gap_nodes
         seg = self.segments[self.segment[node]]
-        fraction = np.broadcast_to(fraction, node.shape)[:, None]
-        xs = self.slave_positions()[node] + fraction * du[self.slave_dofs[node]]
-        xm = self.master_positions()[seg] + fraction[:, None] * self._gather_master(du)[seg]
-        return node_to_segment(xs, xm, self.kind, tangent=False).G
+        xs, dxs = self.slave_positions()[node], du[self.slave_dofs[node]]
+        xm, dxm = self.master_positions()[seg], self._gather_master(du)[seg]
+
+        def gaps(fraction):
+            fraction = np.broadcast_to(fraction, node.shape)[:, None]
+            return node_to_segment(xs + fraction * dxs, xm + fraction[:, None] * dxm, self.kind, tangent=False).G
+        return gaps
 
     def _search(self):
         """Candidate segments of each owned slave node, from the current positions."""
@@ -827,9 +832,9 @@ class RigidContact(_ContactFeature):
     def gap_nodes(self):
         return np.arange(len(self.slave.nodes))
 
-    def _gaps(self, du, fraction):
-        x = self.slave_positions() + np.broadcast_to(fraction, self.gap_nodes.shape)[:, None] * du[self.slave_dofs]
-        return self.shape.gap(x, self.shift)[0]
+    def _gaps_along(self, du):
+        x, dx = self.slave_positions(), du[self.slave_dofs]
+        return lambda fraction: self.shape.gap(x + np.broadcast_to(fraction, len(x))[:, None] * dx, self.shift)[0]
 
     def _state(self, tangent):
         x = self.slave_positions()

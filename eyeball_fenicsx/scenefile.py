@@ -70,6 +70,13 @@ class _Table:
     def has(self, key):
         return key in self.data
 
+    def unique_name(self, kind, taken):
+        """The table's required ``name``, which must not be in ``taken`` (it keys the summary)."""
+        name = self.get("name", "string", required=True)
+        if name in taken:
+            raise self.error(f"{kind} name {name!r} is used twice")
+        return name
+
     def get(self, key, kind, default=None, required=False):
         if key not in self.data:
             if required:
@@ -278,9 +285,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     for t, where in _array(data, "cavity", path):
         t = _Table(t, where, {"name", "surface", "bulk_modulus", "initial_pressure", "injected_volume",
                               "symmetry", "step", "algorithm", "pressurize"})
-        name_ = t.get("name", "string", required=True)
-        if name_ in cavities:
-            raise t.error(f"cavity name {name_!r} is used twice")
+        name_ = t.unique_name("cavity", cavities)
         surface = t.get("surface", "strings" if isinstance(t.data.get("surface"), list) else "string", required=True)
         arguments = (name_, surface, t.get("bulk_modulus", "positive", required=True),
                      t.get("initial_pressure", "number", 0.0), t.get("injected_volume", "number", 0.0),
@@ -303,9 +308,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     for t, where in _array(data, "suture", path):
         t = _Table(t, where, {"name", "first", "second", "tension", "shortening", "stiffness", "first_surface",
                               "second_surface", "anchored", "step"})
-        name_ = t.get("name", "string", required=True)
-        if name_ in sutures:
-            raise t.error(f"suture name {name_!r} is used twice")
+        name_ = t.unique_name("suture", sutures)
         sutures.add(name_)
         ends = {key: t.get(key, "string") for key in ("first_surface", "second_surface")}
         arguments = (name_, t.get("first", "vector", required=True), t.get("second", "vector", required=True))
@@ -376,9 +379,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     contacts = set()
     for t, where in _array(data, "contact", path):
         t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"})
-        name_ = t.get("name", "string", required=True)
-        if name_ in contacts:
-            raise t.error(f"contact name {name_!r} is used twice")
+        name_ = t.unique_name("contact", contacts)
         contacts.add(name_)
         feature, names = _contact(t, step_of)
         features.append(feature)
@@ -387,9 +388,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     probes = {}
     for t, where in _array(data, "probe", path):
         t = _Table(t, where, {"name", "point"})
-        name_ = t.get("name", "string", required=True)
-        if name_ in probes:
-            raise t.error(f"probe name {name_!r} is used twice")
+        name_ = t.unique_name("probe", probes)
         probes[name_] = t.get("point", "vector", required=True)
 
     solver_table = _Table(data.get("solver", {}), f"{path}: [solver]",

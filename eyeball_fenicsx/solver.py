@@ -85,7 +85,8 @@ class NewtonSolver:
         self.problem = problem
         opts = PETSc.Options()
         defaults = dict(DEFAULT_OPTIONS)
-        if any(f.limits_steps for f in problem.features):
+        self.limits_steps = any(f.limits_steps for f in problem.features)
+        if self.limits_steps:
             # the step limit at contact onset already shortens the Newton step; a backtracking
             # line search would take a fraction of that again (a shortened Newton step decreases
             # the residual less than its sufficient-decrease test asks), and crawl; and each onset
@@ -102,7 +103,8 @@ class NewtonSolver:
         snes.setFunction(problem.F, problem.b)
         snes.setJacobian(self._jacobian, problem.A)
         snes.setConvergenceTest(self._converged)
-        snes.setLineSearchPreCheck(self._limit_step)
+        if self.limits_steps:
+            snes.setLineSearchPreCheck(self._limit_step)
         snes.getKSP().getPC().setType("lu")
         self._set_from_options()
         self.residual_norms = []
@@ -163,7 +165,6 @@ class NewtonSolver:
         fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
         if fraction < 1.0:
             y.scale(fraction)
-            self.limited_steps += 1
         return fraction < 1.0
 
     def _converged(self, snes, its, norms):
@@ -206,7 +207,7 @@ class NewtonSolver:
     def solve(self, x):
         """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
         self.residual_norms = []
-        self.tangents = self.limited_steps = 0
+        self.tangents = 0
         self.problem.inverted = None
         with self._our_defaults():  # MUMPS reads its options when it factorizes
             self.snes.solve(None, x)
@@ -254,7 +255,7 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
             secant = x_old - x_prev
             secant.scale(dt / dt_prev)
             fraction = 1.0
-            if any(f.limits_steps for f in problem.features):
+            if newton.limits_steps:
                 problem.F(None, x_old, problem.b)
                 fraction = problem.step_fraction(secant.array_r, problem.b.array_r)
             x.axpy(fraction, secant)
