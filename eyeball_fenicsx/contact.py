@@ -55,15 +55,32 @@ Newton needed 6-11 iterations per increment for a block sliding across a deforma
 the penalty's own error in the Hertz test is -0.3 % of the force at 30 (-1.1 % at 10). A
 scene's ``penalty`` replaces the default on every node.
 
+Smoothing (``smoothing`` = delta, a length): the sharp law switches a node's stiffness from 0 to
+alpha at G = 0, and nodes at the edge of a contact zone flip in and out of contact between
+Newton iterations (the residual cycled between two values when the encircling band was
+tightened beyond 5 mm). The smoothed law (``normal_law``) has a continuous tangent: the
+pressure is alpha delta log(1 + exp(-G / delta)), the sharp one deep in, alpha delta log 2 at
+G = 0 and decaying as exp(-G / delta) outside; it acts up to G = ACTIVE_RANGE delta. With a
+contact pressure p the surfaces settle about delta log(exp(p / (alpha delta)) - 1) apart
+(a small positive gap when p < alpha delta log 2), so delta should be small against what
+the scene measures.
+
 Parallel search: the master surface (its segments as global node numbers, and the current
 coordinates of its nodes) is gathered on every rank, surface-sized data; each rank then
 searches for the slave nodes it owns with a bucket grid (``candidate_pairs``, linear in the
 number of nodes). The candidate segments of each slave node are fixed at the start of a load
 increment (``begin_increment``: those within about an element of the node, plus twice the
-motion of the last increment), which also fixes the matrix pattern (``coupling``); in every
+motion of the last increment), which also fixes the matrix pattern (``coupling``). Within a
 residual evaluation each node takes its closest candidate segment (keeping the one it had
-while it still projects onto it, so it never flip-flops across a fold) and is active iff it
-penetrates. Contact forces are added by global index; the rows of master nodes owned by
+unless another holds its projection better by ``SWITCH_TOLERANCE``). A node switching
+segments at a fold turns its force there, and nodes flipping back and forth can make Newton
+cycle (a period-3 residual on the buckled eye when the sutures pulled the band into its
+trough). So a Newton solve that has not converged after ``HOLD_AFTER`` iterations holds the
+segments (``hold``): each node keeps its own, the bilinear patch extrapolated up to
+``OVERHANG_TOLERANCE`` past its edge, and the residual is smooth. After such a solve
+``settle`` gives each node its closest segment again; if any node changed, Newton runs again
+from there, holding the segments from its start. A node is active iff it penetrates (with a smoothed law, iff its
+gap is below ``ACTIVE_RANGE`` smoothing lengths). Contact forces are added by global index; the rows of master nodes owned by
 other ranks go to their owners through PETSc's stash.
 
 Contact onset (``step_fraction``): the tangent of an open node is zero, so a Newton step that
@@ -99,6 +116,8 @@ SWITCH_TOLERANCE = 0.01  # hysteresis of a node's segment, as a fraction of the 
 OVERHANG_TOLERANCE = 0.25  # a node this far past the master's edge (fraction of a segment) still hits it
 ONSET_TOLERANCE = 1e-6  # a node closing in a Newton step may also go this deep (fraction of its size)
 ONSET_ITERATIONS = 8  # regula falsi steps to find where along a Newton step the first gap closes
+ACTIVE_RANGE = 20.0  # a smoothed law acts up to gaps of this many smoothing lengths (force e^-20)
+OPEN_RANGE = 3.0  # ... and its stiffness is below 5 % of the penalty beyond this many: "open" for the limiter
 _ADD = PETSc.InsertMode.ADD_VALUES
 
 
@@ -245,13 +264,21 @@ def _spread(v, N):
     return np.hstack([v] + [-N[:, i:i + 1] * v for i in range(N.shape[1])])
 
 
-def normal_law(alpha, G, D, H=None):
-    """Penalty pi = 1/2 alpha G^2 of penetrating nodes: residual alpha G D and tangent
-    alpha (D D^T + G H). The one place a friction law would add its tangential terms."""
-    f = (alpha * G)[:, None] * D
+def normal_law(alpha, G, D, H=None, smoothing=0.0):
+    """Penalty pi(G) of the hitting nodes: residual pi' D and tangent pi'' D D^T + pi' H.
+    Sharp (``smoothing`` = 0): pi = 1/2 alpha G^2 for G < 0, pi' = alpha G, pi'' = alpha.
+    Smoothed over a length delta: pi' = -alpha delta log(1 + exp(-G / delta)),
+    pi'' = alpha / (1 + exp(G / delta)) (see ``ACTIVE_RANGE``). The one place a friction law
+    would add its tangential terms."""
+    if smoothing > 0.0:
+        s = -G / smoothing
+        slope, stiffness = -alpha * smoothing * np.logaddexp(0.0, s), alpha * 0.5 * (1.0 + np.tanh(0.5 * s))
+    else:
+        slope, stiffness = alpha * G, alpha
+    f = slope[:, None] * D
     if H is None:
         return f, None
-    K = alpha[:, None, None] * (_outer(D, D) + G[:, None, None] * H)
+    K = stiffness[:, None, None] * _outer(D, D) + slope[:, None, None] * H
     return f, K
 
 
@@ -434,9 +461,12 @@ class _ContactFeature(Feature):
     symmetric_tangent = True  # frictionless: the Hessian of a potential
     limits_steps = True
 
-    def __init__(self, name, slave, penalty, step):
+    def __init__(self, name, slave, penalty, step, smoothing):
         self.name, self.slave_name, self.step = name, slave, step
         self.penalty = _check_penalty(name, penalty)
+        self.smoothing = smoothing
+        self.reach = ACTIVE_RANGE * smoothing  # nodes with gaps below this carry force
+        self.open_gap = OPEN_RANGE * smoothing  # nodes with gaps above this are open for step_fraction
         self.active = False
         # wall seconds, for benchmarks; "gather" (the master surface's displacements, part of
         # search and assembly) includes waiting for the slowest rank
@@ -498,7 +528,7 @@ class _ContactFeature(Feature):
             + ONSET_TOLERANCE * np.sqrt(self.slave.area[node])
         gaps = self._gaps_along(du)
         now, new = gaps(0.0) + depth, gaps(1.0) + depth
-        closing = (now > depth) & (new < 0)
+        closing = (now > depth + self.open_gap) & (new < 0)
         lo, hi, f_lo, f_hi = np.zeros(len(node)), np.ones(len(node)), now, new
         for _ in range(ONSET_ITERATIONS if self.solid.comm.allreduce(closing.any(), op=MPI.LOR) else 0):
             trial = np.where(closing, lo + (hi - lo) * f_lo / (f_lo - f_hi), 1.0)
@@ -510,7 +540,8 @@ class _ContactFeature(Feature):
 
     def report(self):
         """Total force on the slave surface, deepest penetration and where (reference
-        coordinates), number of active nodes, mean penalty (per unit area)."""
+        coordinates), number of nodes in contact (penetrating; with a smoothed law, closer than
+        OPEN_RANGE smoothing lengths), mean penalty (per unit area)."""
         comm = self.solid.comm
         if not self.active:  # its step has not come yet
             return {"force": [0.0, 0.0, 0.0], "max_penetration": 0.0, "where": None, "active_nodes": 0,
@@ -519,7 +550,7 @@ class _ContactFeature(Feature):
         force = comm.allreduce(-state["f"][:, :3].sum(axis=0) if len(state["f"]) else np.zeros(3), op=MPI.SUM)
         depth, where = _where_max(comm, -state["G"], self.slave_X[state["node"]])
         return {"force": force.tolist(), "max_penetration": depth, "where": where,
-                "active_nodes": int(comm.allreduce(len(state["G"]), op=MPI.SUM)), "penalty": float(self.mean_penalty)}
+                "active_nodes": int(comm.allreduce(np.count_nonzero(state["G"] <= self.open_gap), op=MPI.SUM)), "penalty": float(self.mean_penalty)}
 
     def add_to_residual(self, b):
         if not self.active:
@@ -552,15 +583,17 @@ class ContactPair(_ContactFeature):
         penalty: pressure per unit penetration (MPa/mm), per unit area of the slave surface;
             default from the element stiffness of both surfaces (module docstring).
         step: index of the load step from which the contact acts.
+        smoothing: length (mm) over which the penalty law is smoothed (``normal_law``); 0:
+            sharp.
 
     Make the finer of two meshes the slave: single-pass node-to-segment contact keeps slave
     nodes out of the master, while master nodes may poke between slave nodes.
     """
 
-    def __init__(self, name, slave, master, penalty=None, step=0):
+    def __init__(self, name, slave, master, penalty=None, step=0, smoothing=0.0):
         if slave == master:
             raise SceneError(f"contact {name!r}: slave and master are both {slave!r}; name two surfaces")
-        super().__init__(name, slave, penalty, step)
+        super().__init__(name, slave, penalty, step, smoothing)
         self.master_name = master
 
     def setup(self, solid):
@@ -587,6 +620,8 @@ class ContactPair(_ContactFeature):
         self.slave_node_global = self.slave_global[:, 0].astype(np.int64)
         self.segment = np.full(len(self.slave.nodes), -1)  # the segment each node last projected on
         self._selection = None  # (slave and master positions, the nodes in contact, their segments)
+        self.held = False  # each node keeps its segment (``hold``)
+        self._held_before = None
         self._unreserved = True  # the candidates' entries are not yet in the matrix
         self.motion, self.pattern_keys = 0.0, None
         self._last = (self.slave_positions(), self.master_positions())
@@ -684,15 +719,40 @@ class ContactPair(_ContactFeature):
         if last is not None and np.array_equal(last[0], xs) and np.array_equal(last[1], xm):
             node, seg = last[2], last[3]  # the tangent after the residual at the same state
         else:
-            node, seg = self._select(xs, xm)
+            node, seg = self._select(xs, xm, self.held)
             self._selection = (xs, xm, node, seg)
         kin = node_to_segment(xs[node], xm[self.segments[seg]], self.kind, tangent=tangent)
-        f, K = normal_law(self.alpha[node], kin.G, kin.D, kin.H)
+        f, K = normal_law(self.alpha[node], kin.G, kin.D, kin.H, self.smoothing)
         rows = np.hstack([self.slave_global[node], self.master_global[self.segments[seg]].reshape(-1, 3 * self.kind.corners)])
         return {"node": node, "G": kin.G, "f": f, "K": K, "rows": rows, "contacts": np.column_stack([node, seg])}
 
-    def _select(self, xs, xm):
-        """The penetrating slave nodes and the segment each one hits, among the candidates."""
+    def hold(self, held):
+        if held != self.held:
+            self.held, self._selection = held, None
+        if not held:
+            self._held_before = None  # the segments of the last solve that held them
+
+    def settle(self):
+        """After Newton converged: give each node its closest segment; False (on every rank) if
+        any node changed, so Newton must run again (collective)."""
+        if not self.active or not self.held:
+            return True
+        before = self.segment.copy()
+        self._select(self.slave_positions(), self.master_positions(), frozen=False)
+        self._selection = None
+        changed = not np.array_equal(before, self.segment)
+        # back to the segments of the solve before: nodes on a fold of the master, which either
+        # segment's normal pushes across it; they keep the ones they converged on
+        returned = changed and self._held_before is not None and np.array_equal(self._held_before, self.segment)
+        if returned:
+            self.segment = before
+        self._held_before = before
+        return not self.solid.comm.allreduce(changed and not returned, op=MPI.LOR)
+
+    def _select(self, xs, xm, frozen):
+        """The penetrating slave nodes and the segment each one hits, among the candidates.
+        ``frozen``: a node keeps the segment it had while it projects onto it (or just past its
+        edge); else it takes the closest one."""
         node, seg = self.cand_node, self.cand_seg
         trial = node_to_segment(xs[node], xm[self.segments[seg]], self.kind, tangent=False)
         outside = self.kind.outside(trial.xi)
@@ -702,7 +762,7 @@ class ContactPair(_ContactFeature):
         first_of_node = np.flatnonzero(np.r_[True, node[1:] != node[:-1]]) if len(node) else np.empty(0, dtype=int)
         best = np.repeat(np.minimum.reduceat(outside, first_of_node), np.diff(np.r_[first_of_node, len(node)])) \
             if len(node) else outside
-        keep = (self.segment[node] == seg) & (outside <= best + SWITCH_TOLERANCE)
+        keep = (self.segment[node] == seg) & (outside <= (OVERHANG_TOLERANCE if frozen else best + SWITCH_TOLERANCE))
         score = np.where(keep, -1.0, np.abs(trial.G) + self.segment_size[seg] * outside)
         order = np.lexsort((score, node))
         first = order[np.r_[True, node[order][1:] != node[order][:-1]]] if len(order) else order
@@ -711,7 +771,7 @@ class ContactPair(_ContactFeature):
         self.segment[:] = -1
         self.segment[node[first]] = seg[first]
         # penetrating, but not through the whole element under the segment (that is the far side)
-        hit = first[(trial.G[first] < 0) & (-trial.G[first] <= self.thickness[seg[first]])]
+        hit = first[(trial.G[first] < self.reach) & (-trial.G[first] <= self.thickness[seg[first]])]
         return node[hit], seg[hit]
 
 
@@ -805,11 +865,12 @@ class RigidContact(_ContactFeature):
 
     Each node i with gap g_i < 0 adds 1/2 alpha_i g_i^2: residual alpha g grad g and the
     exact tangent alpha (grad g grad g^T + g Hess g) (the normal of a sphere or cylinder
-    turns with the node).
+    turns with the node); ``smoothing`` as for ``ContactPair``.
     """
 
-    def __init__(self, name, slave, shape, penalty=None, step=0, displacement=(0.0, 0.0, 0.0), **shape_params):
-        super().__init__(name, slave, penalty, step)
+    def __init__(self, name, slave, shape, penalty=None, step=0, displacement=(0.0, 0.0, 0.0), smoothing=0.0,
+                 **shape_params):
+        super().__init__(name, slave, penalty, step, smoothing)
         if shape not in SHAPES:
             raise SceneError(f"contact {name!r}: unknown rigid shape {shape!r}; choose one of {sorted(SHAPES)}")
         try:
@@ -839,9 +900,9 @@ class RigidContact(_ContactFeature):
     def _state(self, tangent):
         x = self.slave_positions()
         g, grad, hess = self.shape.gap(x, self.shift)
-        node = np.flatnonzero(g < 0)
+        node = np.flatnonzero(g < self.reach)
         g, grad = g[node], np.ascontiguousarray(grad[node])
         if tangent:
             hess = np.zeros((len(node), 3, 3)) if hess is None else hess[node]
-        f, K = normal_law(self.alpha[node], g, grad, hess if tangent else None)
+        f, K = normal_law(self.alpha[node], g, grad, hess if tangent else None, self.smoothing)
         return {"node": node, "G": g, "f": f, "K": K, "rows": self.slave_global[node], "contacts": node}

@@ -56,6 +56,15 @@ class Feature:
         entries of mixed vectors."""
         return 1.0
 
+    def hold(self, held):
+        """Hold (True) or release what may change non-smoothly from one Newton iteration to the
+        next (the segment each contact node projects on): Newton cycles otherwise."""
+
+    def settle(self):
+        """Collective: after Newton converged an increment, release what was held; False if
+        that changed something, so Newton must run again."""
+        return True
+
     def coupling(self):
         """(rows, cols): global indices of the matrix entries ``add_to_jacobian`` may touch
         beyond the mesh's own pattern, or None. Rows may be owned by any rank."""

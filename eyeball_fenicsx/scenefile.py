@@ -15,6 +15,7 @@ Extensions beyond the contract (documented in README.md):
   its ``initial_pressure`` in its step: the eye brought to its IOP) and ``surface`` as a list
   of surface groups (a liquid wetting several surfaces);
 * ``[[injection]]`` (``cavity``, ``volume``, ``step``): liquid added or removed in a step;
+* ``[[contact]] smoothing`` (mm): the penalty law smoothed over that length (contact.py);
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
   ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
@@ -163,13 +164,14 @@ def _contact(t: _Table, step_of):
     name = t.get("name", "string", required=True)
     slave = t.get("slave", "string", required=True)
     penalty = t.get("penalty", "positive")
+    smoothing = t.get("smoothing", "nonnegative", 0.0)
     if t.has("master") == t.has("rigid"):
         raise t.error("give exactly one of master (a surface) or rigid (a rigid body)")
     if t.has("master"):
         master = t.get("master", "string")
         step = step_of(t)
         try:
-            return ContactPair(name, slave, master, penalty=penalty, step=step), [slave, master]
+            return ContactPair(name, slave, master, penalty=penalty, step=step, smoothing=smoothing), [slave, master]
         except SceneError as error:  # the pair's own checks: slave and master differ
             raise t.error(str(error)) from None
     rigid = t.data["rigid"]
@@ -189,7 +191,7 @@ def _contact(t: _Table, step_of):
         raise r.error("inside applies to sphere and cylinder only")
     step = step_of(t)
     try:
-        return RigidContact(name, slave, shape, penalty=penalty, step=step, **params), [slave]
+        return RigidContact(name, slave, shape, penalty=penalty, step=step, smoothing=smoothing, **params), [slave]
     except SceneError as error:  # the shape's own checks: a non-zero normal or axis
         raise r.error(str(error)) from None
 
@@ -378,7 +380,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         surfaces_used.extend((n, t.where) for n in [*ends.values(), *surfaces.values()] if n)
     contacts = set()
     for t, where in _array(data, "contact", path):
-        t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "step"})
+        t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "smoothing", "step"})
         name_ = t.unique_name("contact", contacts)
         contacts.add(name_)
         feature, names = _contact(t, step_of)

@@ -41,6 +41,8 @@ DEFAULT_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
     "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
 }
+HOLD_AFTER = 8  # Newton iterations after which contact nodes keep their segments (contact.py)
+SETTLE_PASSES = 4  # Newton solves after the first one while contact nodes change segments
 CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
@@ -109,7 +111,7 @@ class NewtonSolver:
         self._set_from_options()
         self.residual_norms = []
         self.factorizations = 0
-        snes.setMonitor(lambda snes, its, norm: self.residual_norms.append(norm))
+        snes.setMonitor(self._monitor)
 
     @contextlib.contextmanager
     def _our_defaults(self):
@@ -141,6 +143,11 @@ class NewtonSolver:
             self.snes.setJacobian(self._jacobian, self.problem.A)
             self.snes.getKSP().reset()
             self._set_from_options()
+
+    def _monitor(self, snes, its, norm):
+        self.residual_norms.append(norm)
+        if its == HOLD_AFTER:
+            self.problem.hold(True)
 
     def _jacobian(self, snes, x, A, P):
         """Assemble a new tangent, or leave A untouched so that the KSP keeps its factorization
@@ -204,8 +211,10 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x):
-        """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
+    def solve(self, x, hold=False):
+        """Newton from x (updated in place); returns (converged, iterations, residual, reason).
+        ``hold``: hold the contact segments from the start (else after HOLD_AFTER iterations)."""
+        self.problem.hold(hold)
         self.residual_norms = []
         self.tangents = 0
         self.problem.inverted = None
@@ -262,6 +271,14 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         start, factorized = time.perf_counter(), newton.factorizations
         newton.update_pattern()
         converged, its, norm, reason = newton.solve(x)
+        for _ in range(SETTLE_PASSES):
+            if not converged or problem.settle():
+                break
+            converged, more, norm, reason = newton.solve(x, hold=True)  # again, from the settled segments
+            its += more
+        else:  # nodes on a fold of the master, pushed across it by either segment's normal, stay put
+            log(f"step {step_name}: contact nodes still change segments after {SETTLE_PASSES} passes; "
+                "they keep the last ones (within a quarter segment past their edges)")
         wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
         if converged:
             t += dt

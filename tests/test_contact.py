@@ -1,6 +1,7 @@
 """Node-to-segment penalty contact against finite differences and closed forms."""
 import gmsh
 import numpy as np
+import scipy.special
 import pytest
 from mpi4py import MPI
 
@@ -75,13 +76,16 @@ def quiet(message):
 
 
 # -- (a) kinematics ---------------------------------------------------------------------------
+@pytest.mark.parametrize("smoothing", [0.0, 0.02, 0.5], ids=["sharp", "smoothed", "smoothed-wide"])
 @pytest.mark.parametrize("kind, segment", [
     (Triangle, [[0, 0, 0], [1.1, 0.1, 0.05], [0.2, 0.9, -0.1]]),
     (Quad, [[0, 0, 0], [1.1, 0.1, 0.05], [1.0, 1.2, 0.3], [0.1, 0.9, -0.1]]),  # warped: curvature b_12 != 0
 ], ids=["triangle", "bilinear-quad"])
-def test_node_to_segment_tangent_is_the_derivative_of_the_force(kind, segment):
-    """f = alpha G D is the gradient of 1/2 alpha G^2 and K = alpha (D D^T + G H) the
-    gradient of f: central differences agree to roundoff (truncation O(h^2) ~ 1e-12)."""
+def test_node_to_segment_tangent_is_the_derivative_of_the_force(kind, segment, smoothing):
+    """f = pi'(G) D is the gradient of the penalty energy pi(G) and K = pi'' D D^T + pi' H the
+    gradient of f: central differences agree to roundoff (truncation O(h^2) ~ 1e-12). Sharp:
+    pi = 1/2 alpha G^2; smoothed over delta: pi = -alpha delta^2 Li2(-exp(-G / delta)), the
+    dilogarithm (Li2(x) = scipy's spence(1 - x)), whose derivative is -alpha delta log(1 + exp(-G/delta))."""
     rng = np.random.default_rng(7)
     x = np.vstack([[0.45, 0.35, -0.1], segment]) + 0.03 * rng.standard_normal((kind.corners + 1, 3))
     alpha = np.array([3.0])
@@ -91,21 +95,34 @@ def test_node_to_segment_tangent_is_the_derivative_of_the_force(kind, segment):
         return node_to_segment(v[:1], v[None, 1:], kind, tangent)
 
     def energy(v):
-        return 0.5 * alpha[0] * kinematics(v).G[0] ** 2
+        G = kinematics(v).G[0]
+        if smoothing == 0.0:
+            return 0.5 * alpha[0] * G ** 2
+        return -alpha[0] * smoothing ** 2 * scipy.special.spence(1.0 + np.exp(-G / smoothing))
 
     def force(v):
         k = kinematics(v)
-        return normal_law(alpha, k.G, k.D)[0][0]
+        return normal_law(alpha, k.G, k.D, smoothing=smoothing)[0][0]
 
     k = kinematics(x, tangent=True)
     assert k.G[0] < 0 and np.all(kind.outside(k.xi) == 0)  # a penetrating node inside the segment
-    f, K = normal_law(alpha, k.G, k.D, k.H)
+    f, K = normal_law(alpha, k.G, k.D, k.H, smoothing)
     h, basis = 1e-6, np.eye(x.size)
     f_fd = np.array([(energy(x.ravel() + h * e) - energy(x.ravel() - h * e)) / (2 * h) for e in basis])
     K_fd = np.array([(force(x.ravel() + h * e) - force(x.ravel() - h * e)) / (2 * h) for e in basis]).T
     assert np.abs(f_fd - f[0]).max() < 1e-8 * np.abs(f).max()
     assert np.abs(K_fd - K[0]).max() < 1e-8 * np.abs(K).max()
     assert np.abs(K[0] - K[0].T).max() < 1e-12 * np.abs(K).max()  # a potential: symmetric
+
+
+def test_smoothed_law_is_the_penalty_away_from_contact():
+    """Deep in (G << -delta) the smoothed force is the sharp alpha G shifted by the exponentially
+    small alpha delta log(1 + exp(G/delta)); far out (G >> delta) it is alpha delta exp(-G/delta)."""
+    alpha, delta, D = np.array([2.0, 2.0]), 0.01, np.ones((2, 1))
+    G = np.array([-0.2, 0.2])
+    f, _ = normal_law(alpha, G, D, smoothing=delta)
+    assert f[0, 0] == pytest.approx(alpha[0] * G[0], rel=1e-9)
+    assert -f[1, 0] == pytest.approx(alpha[1] * delta * np.exp(-G[1] / delta), rel=1e-8)
 
 
 @pytest.mark.parametrize("shape, point", [

@@ -110,6 +110,8 @@ CASES = {
                                  ["[[contact]] #1", "penalty must be positive, got -1000.0"]),
     "contact-penalty-bool": (SOLID + contact(rigid=PLANE, penalty="true"),
                              ["[[contact]] #1", "penalty must be a finite number, got True"]),
+    "contact-smoothing-negative": (SOLID + contact(rigid=PLANE, smoothing="-0.01"),
+                                   ["[[contact]] #1", "smoothing must not be negative, got -0.01"]),
     "contact-displacement-two-components": (
         SOLID + contact(rigid=PLANE.replace(" }", ", displacement = [0.0, -0.1] }")),
         ["[[contact]] #1 rigid", "displacement must be a list of 3 finite numbers", "[0.0, -0.1]"]),
