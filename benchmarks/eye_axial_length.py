@@ -2,8 +2,7 @@
 much finer mesh (issue 7, the eye's row of the work-precision study).
 
 The scene is demos/encircling_buckle.toml (Q1/P0) with the sutures tied at their rest length
-(their step, whose two-rank runs are not yet reliable, left out: issue 6); the measure is the
-buckle's own effect, the axial length after "tighten" less the axial length after
+(so that the measure is the band's alone); the measure is the buckle's own effect, the axial length after "tighten" less the axial length after
 "pressurize", on meshes n_circ = 16, 24, 32, 40 (the default) and the reference n_circ given
 by ``--reference`` (default 56). ``wall_s`` is ``Scene.run`` (the slowest rank's), the mesh
 built and the forms compiled before. The rows, {problem: "eye axial length", element, n, cells,
