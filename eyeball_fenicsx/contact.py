@@ -734,20 +734,23 @@ class ContactPair(_ContactFeature):
 
     def settle(self):
         """After Newton converged: give each node its closest segment; False (on every rank) if
-        any node changed, so Newton must run again (collective)."""
+        any node that carries force changed, so Newton must run again (collective)."""
         if not self.active or not self.held:
             return True
+        xs, xm = self.slave_positions(), self.master_positions()
+        held = np.column_stack(self._select(xs, xm, frozen=True))  # the contacts Newton converged with
         before = self.segment.copy()
-        self._select(self.slave_positions(), self.master_positions(), frozen=False)
+        closest = np.column_stack(self._select(xs, xm, frozen=False))
         self._selection = None
-        changed = not np.array_equal(before, self.segment)
-        # back to the segments of the solve before: nodes on a fold of the master, which either
-        # segment's normal pushes across it; they keep the ones they converged on
-        returned = changed and self._held_before is not None and np.array_equal(self._held_before, self.segment)
-        if returned:
+        changed = not np.array_equal(held, closest)
+        # back to the contacts of the solve before, on every rank: nodes on a fold of the master,
+        # which either segment's normal pushes across it; they keep the ones they converged on
+        returned = changed and self._held_before is not None and np.array_equal(self._held_before, closest)
+        if self.solid.comm.allreduce(returned or not changed, op=MPI.LAND):
             self.segment = before
-        self._held_before = before
-        return not self.solid.comm.allreduce(changed and not returned, op=MPI.LOR)
+            return True
+        self._held_before = held
+        return False
 
     def _select(self, xs, xm, frozen):
         """The penetrating slave nodes and the segment each one hits, among the candidates.

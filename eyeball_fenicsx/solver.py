@@ -211,10 +211,11 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x, hold=False):
+    def solve(self, x, resettle=False):
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
-        ``hold``: hold the contact segments from the start (else after HOLD_AFTER iterations)."""
-        self.problem.hold(hold)
+        ``resettle``: Newton again after the contact segments settled: they are held from the
+        start (else after HOLD_AFTER iterations)."""
+        self.problem.hold(resettle)
         self.residual_norms = []
         self.tangents = 0
         self.problem.inverted = None
@@ -274,11 +275,12 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         for _ in range(SETTLE_PASSES):
             if not converged or problem.settle():
                 break
-            converged, more, norm, reason = newton.solve(x, hold=True)  # again, from the settled segments
+            converged, more, norm, reason = newton.solve(x, resettle=True)
             its += more
-        else:  # nodes on a fold of the master, pushed across it by either segment's normal, stay put
-            log(f"step {step_name}: contact nodes still change segments after {SETTLE_PASSES} passes; "
-                "they keep the last ones (within a quarter segment past their edges)")
+        else:
+            if converged:
+                log(f"step {step_name}: contact nodes still change segments after {SETTLE_PASSES} passes; "
+                    "they keep the last ones (within a quarter segment past their edges)")
         wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
         if converged:
             t += dt
