@@ -715,16 +715,19 @@ class ContactPair(_ContactFeature):
 
     def _state(self, tangent):
         xs, xm = self.slave_positions(), self.master_positions()
-        last = self._selection
-        if last is not None and np.array_equal(last[0], xs) and np.array_equal(last[1], xm):
-            node, seg = last[2], last[3]  # the tangent after the residual at the same state
-        else:
-            node, seg = self._select(xs, xm, self.held)
-            self._selection = (xs, xm, node, seg)
+        node, seg = self._contacts_at(xs, xm)
         kin = node_to_segment(xs[node], xm[self.segments[seg]], self.kind, tangent=tangent)
         f, K = normal_law(self.alpha[node], kin.G, kin.D, kin.H, self.smoothing)
         rows = np.hstack([self.slave_global[node], self.master_global[self.segments[seg]].reshape(-1, 3 * self.kind.corners)])
         return {"node": node, "G": kin.G, "f": f, "K": K, "rows": rows, "contacts": np.column_stack([node, seg])}
+
+    def _contacts_at(self, xs, xm):
+        """The nodes in contact at these slave and master positions, and their segments; the
+        last selection if it was made at the same state (the tangent after the residual)."""
+        last = self._selection
+        if last is None or not (np.array_equal(last[0], xs) and np.array_equal(last[1], xm)):
+            self._selection = (xs, xm, *self._select(xs, xm, self.held))
+        return self._selection[2:]
 
     def hold(self, held):
         if held != self.held:
@@ -738,7 +741,7 @@ class ContactPair(_ContactFeature):
         if not self.active or not self.held:
             return True
         xs, xm = self.slave_positions(), self.master_positions()
-        held = np.column_stack(self._select(xs, xm, frozen=True))  # the contacts Newton converged with
+        held = np.column_stack(self._contacts_at(xs, xm))  # the contacts Newton converged with
         before = self.segment.copy()
         closest = np.column_stack(self._select(xs, xm, frozen=False))
         self._selection = None
