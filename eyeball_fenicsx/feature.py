@@ -56,13 +56,12 @@ class Feature:
         entries of mixed vectors."""
         return 1.0
 
-    def hold(self, held):
-        """Hold (True) or release what may change non-smoothly from one Newton iteration to the
-        next (the segment each contact node projects on): Newton cycles otherwise."""
+    def set_increment(self, final):
+        """Called before each load increment: ``final`` if it ends the step."""
 
-    def settle(self):
-        """Collective: after Newton converged an increment, release what was held; False if
-        that changed something, so Newton must run again."""
+    def augment(self):
+        """Collective: after Newton converged an increment, update what the converged state
+        decides (contact multipliers); False if Newton must solve again."""
         return True
 
     def coupling(self):

@@ -163,14 +163,13 @@ class Problem:
         return min([f.step_fraction(du[: self.n_owned], residual[: self.n_owned]) for f in self.features],
                    default=1.0)
 
-    def hold(self, held):
-        """Hold (or release) what may change non-smoothly between Newton iterations."""
+    def set_increment(self, final):
         for f in self.features:
-            f.hold(held)
+            f.set_increment(final)
 
-    def settle(self):
-        """After Newton converged: True if no feature changed what it held fixed (collective)."""
-        return all([f.settle() for f in self.features])
+    def augment(self):
+        """After Newton converged: True if no feature needs another solve (collective)."""
+        return all([f.augment() for f in self.features])
 
     # -- SNES callbacks ------------------------------------------------------------------
     def assemble_residual_unconstrained(self):

@@ -41,8 +41,6 @@ DEFAULT_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
     "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
 }
-HOLD_AFTER = 8  # Newton iterations after which contact nodes keep their segments (contact.py)
-SETTLE_PASSES = 4  # Newton solves after the first one while contact nodes change segments
 CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
@@ -146,8 +144,6 @@ class NewtonSolver:
 
     def _monitor(self, snes, its, norm):
         self.residual_norms.append(norm)
-        if its == HOLD_AFTER:
-            self.problem.hold(True)
 
     def _jacobian(self, snes, x, A, P):
         """Assemble a new tangent, or leave A untouched so that the KSP keeps its factorization
@@ -211,11 +207,8 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x, resettle=False):
-        """Newton from x (updated in place); returns (converged, iterations, residual, reason).
-        ``resettle``: Newton again after the contact segments settled: they are held from the
-        start (else after HOLD_AFTER iterations)."""
-        self.problem.hold(resettle)
+    def solve(self, x):
+        """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
         self.residual_norms = []
         self.tangents = 0
         self.problem.inverted = None
@@ -271,16 +264,11 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
             x.axpy(fraction, secant)
         start, factorized = time.perf_counter(), newton.factorizations
         newton.update_pattern()
+        problem.set_increment(t + dt >= 1.0 - 1e-12)
         converged, its, norm, reason = newton.solve(x)
-        for _ in range(SETTLE_PASSES):
-            if not converged or problem.settle():
-                break
-            converged, more, norm, reason = newton.solve(x, resettle=True)
+        while converged and not problem.augment():  # augmented Lagrangian: Newton again
+            converged, more, norm, reason = newton.solve(x)
             its += more
-        else:
-            if converged:
-                log(f"step {step_name}: contact nodes still change segments after {SETTLE_PASSES} passes; "
-                    "they keep the last ones (within a quarter segment past their edges)")
         wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
         if converged:
             t += dt

@@ -6,8 +6,7 @@ import pytest
 from mpi4py import MPI
 
 import eyeball_fenicsx as ef
-from eyeball_fenicsx.contact import (Cylinder, ContactPair, Quad, RigidContact, Sphere, Triangle, candidate_pairs,
-                                     node_to_segment, normal_law)
+from eyeball_fenicsx.contact import (Cylinder, ContactPair, Quad, RigidContact, Sphere, Triangle, candidate_pairs)
 from eyeball_fenicsx.mesh import built_mesh
 from meshes._discrete import HEXAHEDRON, QUADRANGLE, boundary_quads, hex_grid
 

@@ -1,0 +1,274 @@
+"""What every contact feature shares: points with a gap, the law, assembly, the augmented
+Lagrangian, the Newton-step limit at contact onset and the report.
+
+A contact feature is a set of *points* of its slave surface (Gauss points of the slave
+facets for a deformable pair, nodes against a rigid body), each with an area weight W, a
+penalty alpha (per unit area) and a multiplier lambda (``law.py``). At every state the
+subclass selects what each point projects on and its gap g (``_select``), and gives the
+residual and tangent of the points that carry a pressure (``_forces``).
+
+**Augmented Lagrangian.** The multipliers live on the slave nodes and are interpolated to
+the points (lambda = sum_i N_i lambda_i). After Newton converges at the end of a step, each
+node's multiplier takes Uzawa's update with its weighted gap,
+
+    lambda_i <- <lambda_i - alpha_i g_i>_+,   g_i = sum_pts W N_i g / sum_pts W N_i
+                                             (over the points that carry a pressure),
+
+and Newton runs again, until the multipliers change by less than AUGMENT_TOLERANCE
+(relative, area-weighted L2): the weighted gaps then vanish wherever the surfaces press,
+whatever the penalty. One constraint per slave node, as in mortar methods: one per Gauss
+point would be more constraints than the slave surface has nodes, and the pressure modes
+that move no node would never converge. Increments inside a step take one update each,
+without solving again (it starts the next increment closer).
+
+**Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
+gaps drives the surfaces through each other by the whole step, and the penalty throws them
+apart again. Before each Newton update the step is shortened to where the first closing
+point reaches the depth d = max(f / (alpha W), ONSET_DEPTH h) (f the largest force out of
+balance on the slave nodes, h the thickness of the point's element), found by regula falsi
+along the step. Every point that closes by less than its d in the step closes in it, so
+many gaps close in one Newton step; a step that closes nothing is not touched, which
+leaves the converged answer and Newton's quadratic convergence as they were.
+"""
+import dataclasses
+import time
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dolfinx import fem
+
+from ..feature import Feature
+from .law import pressure
+from .policy import ACTIVE_RANGE, AUGMENT_TOLERANCE, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
+from .surface import check_penalty
+
+_ADD = PETSc.InsertMode.ADD_VALUES
+
+
+@dataclasses.dataclass
+class Selection:
+    """The points that project on something at a state, what on (a segment, or -1), and
+    their gaps."""
+
+    point: np.ndarray
+    target: np.ndarray
+    g: np.ndarray
+
+
+class ContactFeature(Feature):
+    """Base of ``ContactPair`` and ``RigidContact`` (see the module docstring).
+
+    Subclasses set, in ``setup``: ``weight``, ``alpha``, ``thickness``, ``point_X``
+    (reference coordinates), ``point_nodes`` (the local x-dofs of the slave nodes the point
+    interpolates, (n, k)) and ``point_N`` (their weights) per point, ``slave_dofs`` (the owned slave nodes'
+    local dofs, (n, 3)) and ``mean_penalty``; and give ``_positions()`` (collective: the
+    state the selection depends on), ``_select(positions)``, ``_forces(selection, index, p,
+    k, tangent)`` and ``_gaps_along(du)``.
+    """
+
+    section = "contact"
+    adds_to_residual = True
+    adds_to_jacobian = True
+    limits_steps = True
+
+    def __init__(self, name, slave, penalty, step, smoothing):
+        self.name, self.slave_name, self.step = name, slave, step
+        self.penalty = check_penalty(name, penalty)
+        self.smoothing = float(smoothing)
+        self.reach = ACTIVE_RANGE * self.smoothing  # smoothed: points with (gap - lambda/alpha) below carry force
+        self.open_gap = OPEN_RANGE * self.smoothing  # ... and above this they are open for step_fraction
+        self.active = False
+        self.final_increment, self._passes = True, 0
+        self._relaxation, self._last_update = 1.0, None
+        self._selection = None  # (the positions it was made at, the Selection)
+        # wall seconds, for benchmarks; "gather" (the master surface's displacements) includes
+        # waiting for the slowest rank
+        self.timing = {"search": 0.0, "assembly": 0.0, "gather": 0.0}
+        self._contacts = {"residual": None, "jacobian": None}  # who touches what, at the last of each
+
+    # -- the state -----------------------------------------------------------------------
+    def _selection_now(self):
+        """The selection at the current state (collective); reused while the state holds."""
+        positions = self._positions()
+        last = self._selection
+        if last is None or not all(np.array_equal(a, b) for a, b in zip(last[0], positions)):
+            self._selection = (positions, self._select(positions))
+        return self._selection[1]
+
+    def _pressures(self):
+        """The selection, which of its points carry force, and their pressure and stiffness."""
+        sel = self._selection_now()
+        multiplier = self._point_multipliers()[sel.point]
+        p, k = pressure(sel.g, multiplier, self.alpha[sel.point], self.smoothing)
+        if self.smoothing > 0.0:
+            on = sel.g - multiplier / self.alpha[sel.point] < self.reach
+        else:
+            on = p > 0.0
+        return sel, on, p, k
+
+    def _state(self, tangent):
+        sel, on, p, k = self._pressures()
+        index = np.flatnonzero(on)
+        rows, r, K, direction = self._forces(sel, index, p[index], k[index], tangent)
+        return {"point": sel.point[index], "g": sel.g[index], "p": p[index], "rows": rows, "r": r, "K": K,
+                "direction": direction, "contacts": np.column_stack([sel.point[index], sel.target[index]])}
+
+    # -- Newton --------------------------------------------------------------------------
+    def begin_step(self, step_index):
+        self.active = step_index >= self.step
+
+    def tangent_outdated(self):
+        """True (on every rank: collective) if the contacts changed since the last tangent was
+        assembled: a factorization of that tangent then is no Newton step."""
+        if not self.active:
+            return False
+        seen = self._contacts
+        same = seen["jacobian"] is not None and seen["residual"] is not None \
+            and np.array_equal(seen["jacobian"], seen["residual"])
+        return self.solid.comm.allreduce(not same, op=MPI.LOR)
+
+    def add_to_residual(self, b):
+        if not self.active:
+            return
+        start = time.perf_counter()
+        state = self._state(tangent=False)
+        self._contacts["residual"] = state["contacts"]
+        b.setValues(state["rows"].ravel(), state["r"].ravel(), addv=_ADD)
+        self.timing["assembly"] += time.perf_counter() - start
+
+    def add_to_jacobian(self, A):
+        start = time.perf_counter()
+        self._reserve(A)
+        if self.active:
+            state = self._state(tangent=True)
+            self._contacts["jacobian"] = state["contacts"]
+            for rows, K in zip(state["rows"], state["K"]):
+                A.setValues(rows, rows, K, addv=_ADD)
+        self.timing["assembly"] += time.perf_counter() - start
+
+    def _reserve(self, A):
+        """Make room in A for the entries contact may add later (nothing by default)."""
+
+    def set_increment(self, final):
+        """Whether the coming increment ends its step (the augmentations then go to the end)."""
+        self.final_increment, self._passes = final, 0
+        self._relaxation, self._last_update = 1.0, None
+
+    def _point_multipliers(self):
+        return np.einsum("na,na->n", self.point_N, self.node_multiplier[self.point_nodes])
+
+    def _nodal_sums(self, point, values):
+        """sum over the points of values * N_i at every slave node, ghosts included (collective)."""
+        work = self._work.x
+        work.array[:] = 0.0
+        np.add.at(work.array, self.point_nodes[point], self.point_N[point] * values[:, None])
+        self._work.vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        work.scatter_forward()
+        return work.array.copy()
+
+    def augment(self):
+        """Uzawa's update of the nodal multipliers (module docstring; collective). Returns True
+        if nothing is left to do: not this feature's step yet, an increment inside a step (one
+        update, no new solve), or multipliers that changed by less than AUGMENT_TOLERANCE;
+        False if Newton must solve again."""
+        if not self.active:
+            return True
+        sel, on, _, _ = self._pressures()
+        point, g = sel.point[on], sel.g[on]
+        w = self.weight[point]
+        area = self._nodal_sums(point, w)
+        gap = self._nodal_sums(point, w * g)
+        alpha = self._nodal_sums(point, w * self.alpha[point])
+        seen = area > 0
+        target = np.zeros_like(self.node_multiplier)
+        target[seen] = np.maximum(self.node_multiplier[seen] - alpha[seen] * gap[seen] / area[seen] ** 2, 0.0)
+        owned = seen & (np.arange(len(seen)) < self._num_owned)
+        update = target - self.node_multiplier
+        weighted = area * owned
+        sums = self.solid.comm.allreduce(np.array([np.sum(weighted * update**2), np.sum(weighted * target**2)]),
+                                         op=MPI.SUM)
+        if sums[0] <= AUGMENT_TOLERANCE**2 * sums[1] or self._passes >= MAX_AUGMENTATIONS:
+            self._last_update = None
+            return True
+        # Aitken's relaxation of the increments (Irons and Tuck 1969; Kuettler and Wall,
+        # Comput. Mech. 43 (2008) 61-72): omega <- -omega r_(k-1) . (r_k - r_(k-1)) / |r_k - r_(k-1)|^2
+        if self._last_update is not None:
+            change = update - self._last_update
+            dots = self.solid.comm.allreduce(np.array([np.sum(weighted * self._last_update * change),
+                                                       np.sum(weighted * change**2)]), op=MPI.SUM)
+            if dots[1] > 0:
+                self._relaxation = float(np.clip(-self._relaxation * dots[0] / dots[1], 0.1, 10.0))
+        self._last_update = update
+        self.node_multiplier = np.maximum(self.node_multiplier + self._relaxation * update, 0.0)
+        self._selection = None
+        self.augmentations += 1
+        self._passes += 1
+        return not self.final_increment
+
+    def _ghosted(self, values):
+        """A mixed vector's owned entries, with this rank's ghost entries filled (collective)."""
+        work = self._work
+        work.x.array[: len(values)] = values
+        work.x.scatter_forward()
+        return work.x.array
+
+    def step_fraction(self, du, residual):
+        """The largest fraction (at most 1) of the state change ``du`` (the owned entries of the
+        mixed vector) at which no closing point is deeper than its onset depth (module
+        docstring; collective)."""
+        if not self.active:
+            return 1.0
+        point, gaps = self._gaps_along(du)
+        force = self.solid.comm.allreduce(np.abs(residual[self.slave_dofs]).max(initial=0.0), op=MPI.MAX)
+        shift = self._point_multipliers()[point] / self.alpha[point]
+        depth = np.maximum(force / (self.alpha[point] * self.weight[point]), ONSET_DEPTH * self.thickness[point])
+        now, new = gaps(0.0) - shift + depth, gaps(1.0) - shift + depth
+        closing = (now > depth + self.open_gap) & (new < 0)
+        lo, hi, f_lo, f_hi = np.zeros(len(point)), np.ones(len(point)), now, new
+        for _ in range(ONSET_ITERATIONS if self.solid.comm.allreduce(closing.any(), op=MPI.LOR) else 0):
+            trial = np.where(closing, lo + (hi - lo) * f_lo / (f_lo - f_hi), 1.0)
+            f = gaps(trial) - shift + depth
+            below = f < 0
+            f_lo, lo = np.where(below, 0.5 * f_lo, f), np.where(below, lo, trial)  # Illinois: halve the
+            f_hi, hi = np.where(below, f, 0.5 * f_hi), np.where(below, trial, hi)  # end that stays
+        return self.solid.comm.allreduce(np.min(hi[closing], initial=1.0), op=MPI.MIN)
+
+    # -- output --------------------------------------------------------------------------
+    def point_pressures(self):
+        """Reference coordinates (n, 3) of this rank's points and their contact pressure (n,)."""
+        result = np.zeros(len(self.weight))
+        if self.active:
+            sel, on, p, _ = self._pressures()
+            result[sel.point[on]] = p[on]
+        return self.point_X, result
+
+    def report(self):
+        """Total force on the slave surface, deepest penetration and where (reference
+        coordinates), the points and slave nodes that carry a pressure, the mean penalty
+        (per unit area) and the augmentations so far."""
+        comm = self.solid.comm
+        if not self.active:  # its step has not come yet
+            return {"force": [0.0, 0.0, 0.0], "max_penetration": 0.0, "where": None, "active_points": 0,
+                    "active_nodes": 0, "penalty": float(self.mean_penalty), "augmentations": 0}
+        state = self._state(tangent=False)
+        force = (self.weight[state["point"]] * state["p"])[:, None] * state["direction"]
+        force = comm.allreduce(force.sum(axis=0), op=MPI.SUM)
+        depth = -state["g"]
+        local = (float(depth.max()), self.point_X[state["point"][depth.argmax()]].tolist()) if len(depth) else (0.0, None)
+        deepest = max(comm.allgather(local), key=lambda item: item[0])
+        return {"force": force.tolist(), "max_penetration": max(deepest[0], 0.0),
+                "where": deepest[1] if deepest[0] > 0 else None,
+                "active_points": int(comm.allreduce(len(state["point"]), op=MPI.SUM)),
+                "active_nodes": self._loaded_nodes(state["point"]), "penalty": float(self.mean_penalty),
+                "augmentations": int(self.augmentations)}
+
+    def _setup_common(self, solid):
+        self.solid = solid
+        self._work = fem.Function(solid.W)
+        self.node_multiplier = np.zeros(len(self._work.x.array))
+        self._num_owned = solid.W.dofmap.index_map.size_local
+        self.augmentations = 0
+        totals = solid.comm.allreduce(np.array([self.weight.sum(), (self.weight * self.alpha).sum()]), op=MPI.SUM)
+        self.mean_penalty = totals[1] / totals[0]

@@ -1,0 +1,284 @@
+"""Contact kinematics: a slave point projected on a master surface along its continuous normal.
+
+Segments are the facets as the first-order element sees them: bilinear quadrilaterals on
+hexahedra, linear triangles on tetrahedra, nodes counter-clockwise seen from outside.
+
+**A continuous normal field.** Every master node a carries the normal
+
+    nu_a = (1 / s_a) sum_(facets f at a) (x_next - x_a) x (x_prev - x_a),
+
+the sum of the corner cross products of the facets around it (the area-weighted average
+normal), scaled by s_a, its length in the reference configuration (so nu_a is a unit vector
+there and stays close to one). On a segment the normal is interpolated as the position is,
+m(xi) = sum_a N_a(xi) nu_a, so it is continuous across segment edges: the surface smoothing
+of Abaqus, and the averaged nodal normals of Puso and Laursen (Comput. Methods Appl. Mech.
+Engrg. 193 (2004) 601-629).
+
+**Projection.** A slave point x_s lies on the ray from y(xi) = sum_a N_a(xi) x_a along m(xi):
+
+    R(xi, g) = x_s - y(xi) - g m(xi) = 0,
+
+three equations for the surface coordinates xi and g, solved by Newton; the normal distance
+is g_n = g |m| (negative: penetration). Both y and m are continuous across segment edges, so
+g_n is continuous as the point slides over a fold of the faceted master, and the two
+segments at an edge give the same foot there.
+
+**Traction.** The contact pressure p acts along the unit normal n = m / |m| of the foot:
+the slave point takes p n, the master nodes -N_a p n. The direction is continuous across
+segment edges (the gradient of any gap function is not: its level sets are faceted like the
+master), so a node sliding across a fold no longer turns its force there; the price is a
+tangent that is not symmetric (as in Puso and Laursen's smoothed mortar contact).
+
+**Linearization.** With q the positions of the slave facet's nodes and of the master nodes
+whose normals enter (the segment's patch: its corners and their neighbours along facet
+edges), implicit differentiation of R(z(q), q) = 0, z = (xi_1, xi_2, g), gives
+
+    dz/dq = [T_1, T_2, m]^-1 R_q,   T_b = y_,b + g m_,b,
+    R_q dq = dx_s - sum_a N_a (dx_a + g dnu_a),
+
+and from it dg_n = |m| dg + g n . dm, dn = (I - n n^T) dm / |m|, dm = m_,b dxi_b + sum_a N_a
+dnu_a, dN_a = N_a,b dxi_b, with dnu_a from the cross products (exact: nu_a is quadratic in
+the positions). ``project`` returns them; the tests check them against finite differences.
+"""
+import dataclasses
+
+import numpy as np
+
+
+class Triangle:
+    """Linear triangle: N = (1 - xi_1 - xi_2, xi_1, xi_2)."""
+
+    corners = 3
+    centre = (1.0 / 3.0, 1.0 / 3.0)
+    bounds = (-1.0, 2.0)
+    _dN = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+    # degree-2 Gauss points (Strang and Fix): the weights sum to the reference area 1/2
+    gauss_points = np.array([[1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
+    gauss_weights = np.full(3, 1 / 6)
+
+    @staticmethod
+    def shape(xi):
+        """N (n, 3) and dN/dxi (n, 3, 2) at points xi (n, 2)."""
+        N = np.column_stack([1.0 - xi[:, 0] - xi[:, 1], xi[:, 0], xi[:, 1]])
+        return N, np.broadcast_to(Triangle._dN, (len(xi), 3, 2))
+
+    @staticmethod
+    def outside(xi):
+        """How far outside the segment a point lies, as a fraction of its size."""
+        return np.maximum(0.0, -np.min(Triangle.shape(xi)[0], axis=1))
+
+
+class Quad:
+    """Bilinear quadrilateral on [-1, 1]^2, nodes counter-clockwise."""
+
+    corners = 4
+    centre = (0.0, 0.0)
+    bounds = (-2.0, 2.0)
+    _signs = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    gauss_points = _signs / np.sqrt(3.0)  # 2 x 2 Gauss points, weight 1 each
+    gauss_weights = np.ones(4)
+
+    @staticmethod
+    def shape(xi):
+        s = Quad._signs
+        f = 1.0 + xi[:, None, :] * s[None, :, :]  # (n, 4, 2): 1 + s_b xi_b
+        N = 0.25 * f[:, :, 0] * f[:, :, 1]
+        dN = 0.25 * np.stack([s[:, 0] * f[:, :, 1], s[:, 1] * f[:, :, 0]], axis=-1)
+        return N, dN
+
+    @staticmethod
+    def outside(xi):
+        return np.maximum(0.0, 0.5 * (np.max(np.abs(xi), axis=1) - 1.0))
+
+
+def segment_kind(corners):
+    """``Quad`` or ``Triangle``, by the number of corners."""
+    return Quad if corners == 4 else Triangle
+
+
+def corner_products(x_seg):
+    """(x_next - x_a) x (x_prev - x_a) at each corner of segments x_seg (m, k, 3)."""
+    return np.cross(np.roll(x_seg, -1, axis=1) - x_seg, np.roll(x_seg, 1, axis=1) - x_seg)
+
+
+@dataclasses.dataclass
+class Patches:
+    """Per master segment, the nodes its normal field depends on, and how.
+
+    Attributes:
+        nodes: (m, P) node indices of the patch, the segment's corners first; padded with
+            the segment's first corner (padded entries carry no incidence).
+        next, prev: (m, k, V) for each corner a of the segment, the patch positions of the
+            next and previous node of each facet at a (V incidences, padded); ``mask``
+            (m, k, V) marks the real ones.
+        scale: (m, k) s_a, the reference length of each corner's summed cross products.
+    """
+
+    nodes: np.ndarray
+    next: np.ndarray
+    prev: np.ndarray
+    mask: np.ndarray
+    scale: np.ndarray
+
+    def rows(self, segment):
+        """The patch data of the given segments (one per contact point)."""
+        return Patches(self.nodes[segment], self.next[segment], self.prev[segment], self.mask[segment],
+                       self.scale[segment])
+
+
+def patches(segments, X):
+    """The ``Patches`` of the surface ``segments`` (m, k) with reference node coordinates X;
+    a node's incidences are the facets that hold it (surface-sized, once at setup)."""
+    m, k = segments.shape
+    node_of = segments.ravel()
+    order = np.argsort(node_of, kind="stable")
+    node_of, facet_of, corner_of = node_of[order], np.repeat(np.arange(m), k)[order], np.tile(np.arange(k), m)[order]
+    start = np.searchsorted(node_of, np.arange(len(X)))
+    valence = np.searchsorted(node_of, np.arange(len(X)), side="right") - start
+    V = int(valence.max(initial=1))
+    slot = np.arange(V)
+    mask = slot[None, None, :] < valence[segments][:, :, None]  # (m, k, V)
+    index = np.minimum(start[segments][:, :, None] + slot, len(node_of) - 1)
+    facet, corner = facet_of[index], corner_of[index]
+    nxt, prv = segments[facet, (corner + 1) % k], segments[facet, (corner - 1) % k]
+    rows = []
+    for s in range(m):
+        others = np.unique(np.concatenate([nxt[s][mask[s]], prv[s][mask[s]]]))
+        rows.append(np.concatenate([segments[s], others[~np.isin(others, segments[s])]]))
+    P = max(len(r) for r in rows)
+    nodes = np.array([np.pad(r, (0, P - len(r)), constant_values=r[0]) for r in rows])
+
+    def position(values):  # the first match: padded entries repeat the first corner
+        return np.argmax(nodes[:, None, None, :] == values[:, :, :, None], axis=-1)
+
+    summed = np.zeros((len(X), 3))
+    np.add.at(summed, segments.ravel(), corner_products(X[segments]).reshape(-1, 3))
+    return Patches(nodes, position(nxt), position(prv), mask, np.linalg.norm(summed[segments], axis=2))
+
+
+def _skew(v):
+    """[v]_x (..., 3, 3): [v]_x w = v x w."""
+    z = np.zeros(v.shape[:-1])
+    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1), np.stack([v[..., 2], z, -v[..., 0]], -1),
+                     np.stack([-v[..., 1], v[..., 0], z], -1)], axis=-2)
+
+
+@dataclasses.dataclass
+class Projection:
+    """Slave points projected on master segments (arrays over points).
+
+    Attributes:
+        g: normal distance g_n (n,), negative when penetrating; xi (n, 2) the foot.
+        inside: (n,) the foot lies on the segment and the projection converged.
+        normal: n (n, 3) at the foot; N: (n, k) the segment's shape functions there.
+        dg, dnormal, dN: derivatives over q = [slave facet nodes, patch nodes] x 3
+            components: (n, nq), (n, 3, nq), (n, k, nq); when asked for.
+    """
+
+    g: np.ndarray
+    xi: np.ndarray
+    inside: np.ndarray
+    normal: np.ndarray
+    N: np.ndarray
+    dg: np.ndarray = None
+    dnormal: np.ndarray = None
+    dN: np.ndarray = None
+
+
+def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolerance=1e-12):
+    """Project slave points on master segments along the interpolated nodal normal field.
+
+    Args:
+        x_s: (n, 3) slave points; N_s: (n, k_s) their weights on their slave facet's nodes.
+        x_p: (n, P, 3) positions of the master patch nodes (the segment's corners first).
+        patch: ``Patches`` with one row per point (``Patches.rows``).
+        kind: ``Quad`` or ``Triangle`` (the master segment).
+        derivatives: also the derivatives over the slave facet's and the patch's nodes.
+    """
+    n, P, k, k_s = len(x_s), x_p.shape[1], kind.corners, N_s.shape[1]
+    rows = np.arange(n)[:, None, None]
+    corner = np.broadcast_to(np.arange(k)[None, :, None], patch.mask.shape)
+    e_next = np.where(patch.mask[..., None], x_p[rows, patch.next] - x_p[rows, corner], 0.0)
+    e_prev = np.where(patch.mask[..., None], x_p[rows, patch.prev] - x_p[rows, corner], 0.0)
+    nu = np.cross(e_next, e_prev).sum(axis=2) / patch.scale[:, :, None]  # (n, k, 3)
+    x_seg = x_p[:, :k]
+    size = np.sqrt(np.linalg.norm(np.cross(x_seg[:, 2] - x_seg[:, 0], x_seg[:, -1] - x_seg[:, 1]), axis=1))
+
+    def frame(xi, g):
+        N, dN = kind.shape(xi)
+        m, m_b = np.einsum("na,nai->ni", N, nu), np.einsum("nab,nai->nbi", dN, nu)
+        T = np.einsum("nab,nai->nbi", dN, x_seg) + g[:, None, None] * m_b
+        return N, dN, m, m_b, np.stack([T[:, 0], T[:, 1], m], axis=2)  # columns T_1, T_2, m
+
+    xi = np.tile(np.asarray(kind.centre, dtype=float), (n, 1))
+    N, _ = kind.shape(xi)
+    m = np.einsum("na,nai->ni", N, nu)
+    g = np.einsum("ni,ni->n", x_s - np.einsum("na,nai->ni", N, x_seg), m) / np.einsum("ni,ni->n", m, m)
+    converged = np.zeros(n, dtype=bool)
+    for _ in range(iterations):  # Newton on (xi, g); a foot far outside is stopped by the bounds
+        N, dN, m, m_b, J = frame(xi, g)
+        step = np.linalg.solve(J, (x_s - np.einsum("na,nai->ni", N, x_seg) - g[:, None] * m)[:, :, None])[:, :, 0]
+        xi, g = np.clip(xi + step[:, :2], *kind.bounds), g + step[:, 2]
+        converged |= (np.abs(step[:, :2]).max(axis=1) < tolerance) & (np.abs(step[:, 2]) < tolerance * size)
+        if converged.all():
+            break
+    N, dN, m, m_b, J = frame(xi, g)
+    length = np.linalg.norm(m, axis=1)
+    normal = m / length[:, None]
+    result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, normal, N)
+    if not derivatives:
+        return result
+
+    # dnu_a / dq over the patch nodes (n, k, 3, P, 3):
+    # d[e_n x e_p] = -[e_p]_x (dx_next - dx_a) + [e_n]_x (dx_prev - dx_a)
+    dnu = np.zeros((n, k, 3, P, 3))
+    view = dnu.transpose(0, 1, 3, 2, 4)  # (n, k, P, 3, 3): the block of each patch node
+    weight = (patch.mask / patch.scale[:, :, None])[..., None, None]
+    skew_next, skew_prev = _skew(e_next), _skew(e_prev)
+    point = np.broadcast_to(rows, patch.mask.shape)
+    for target, block in ((patch.next, -skew_prev), (patch.prev, skew_next), (corner, skew_prev - skew_next)):
+        np.add.at(view, (point, corner, target), weight * block)
+    dnu = dnu.reshape(n, k, 3, 3 * P)
+
+    eye3, nq = np.eye(3), 3 * (k_s + P)
+    Rq = np.zeros((n, 3, nq))
+    Rq[:, :, : 3 * k_s] = (N_s[:, None, :, None] * eye3[None, :, None, :]).reshape(n, 3, 3 * k_s)
+    Rq[:, :, 3 * k_s: 3 * (k_s + k)] = -(N[:, None, :, None] * eye3[None, :, None, :]).reshape(n, 3, 3 * k)
+    dM = np.einsum("na,naiq->niq", N, dnu)  # sum_a N_a dnu_a
+    Rq[:, :, 3 * k_s:] -= g[:, None, None] * dM
+    dz = np.linalg.solve(J, Rq)  # (n, 3, nq): dxi_1, dxi_2, dg
+    dm = np.einsum("nbi,nbq->niq", m_b, dz[:, :2])
+    dm[:, :, 3 * k_s:] += dM
+    result.dg = length[:, None] * dz[:, 2] + g[:, None] * np.einsum("ni,niq->nq", normal, dm)
+    result.dnormal = np.einsum("nij,njq->niq", eye3 - normal[:, :, None] * normal[:, None, :], dm) / length[:, None, None]
+    result.dN = np.einsum("nab,nbq->naq", dN, dz[:, :2])
+    return result
+
+
+def traction(weight, pressure, stiffness, proj, N_s):
+    """Residual and tangent of a contact pressure p(g_n) acting along the normal n at the foot.
+
+    The slave point takes p n, the master segment's corners -N_a p n; with the residual as
+    internal minus external force,
+
+        r = -W p Gamma,  Gamma = [N_s,i n (slave nodes), -N_a n (corners), 0 (other patch nodes)],
+        K = dr/dq = W k Gamma dg_n^T - W p dGamma/dq,   k = -dp/dg_n,
+
+    for points of area weight W (n,), pressure p (n,) and stiffness k (n,).
+    Returns r (n, nq) and K (n, nq, nq) in the order of ``project``'s q.
+    """
+    n, k_s = len(weight), N_s.shape[1]
+    k = proj.N.shape[1]
+    nq = proj.dg.shape[1]
+    n_vec = proj.normal
+    gamma = np.zeros((n, nq))
+    gamma[:, : 3 * k_s] = (N_s[:, :, None] * n_vec[:, None, :]).reshape(n, 3 * k_s)
+    gamma[:, 3 * k_s: 3 * (k_s + k)] = -(proj.N[:, :, None] * n_vec[:, None, :]).reshape(n, 3 * k)
+    dgamma = np.zeros((n, nq, nq))
+    dgamma[:, : 3 * k_s] = (N_s[:, :, None, None] * proj.dnormal[:, None, :, :]).reshape(n, 3 * k_s, nq)
+    dgamma[:, 3 * k_s: 3 * (k_s + k)] = -(proj.N[:, :, None, None] * proj.dnormal[:, None, :, :]
+                                          + n_vec[:, None, :, None] * proj.dN[:, :, None, :]).reshape(n, 3 * k, nq)
+    r = -(weight * pressure)[:, None] * gamma
+    K = (weight * stiffness)[:, None, None] * gamma[:, :, None] * proj.dg[:, None, :] \
+        - (weight * pressure)[:, None, None] * dgamma
+    return r, K

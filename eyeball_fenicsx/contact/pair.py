@@ -1,0 +1,241 @@
+"""Frictionless contact of two deformable surfaces: slave Gauss points on master segments.
+
+The slave surface is integrated at the Gauss points of its facets (2 x 2 on a
+quadrilateral, 3 on a triangle; weights in the reference configuration), as FEBio's
+sliding-elastic interface does, so a slave node sitting over a fold of the master is no
+longer one point that must choose a side. Each point is projected along the master's
+continuous normal field (``geometry.py``) on the candidate segments found at the start of
+the increment (``search.py``: within SEARCH_FACTOR segment sizes plus twice the last
+increment's motion), and takes the segment whose foot lies on it and is nearest; two
+segments at an edge give the same foot there, and exact ties go to the segment with the
+smallest reference centroid (lexicographic), a rule that does not depend on the partition.
+A point farther inside than the element under the segment is on its far side, not in
+contact. Nothing is remembered between evaluations.
+
+Parallel: the master surface (segments as global node numbers, reference coordinates, and
+the displacements of its nodes at every state) is gathered on every rank; each rank owns the
+slave facets of its cells. Forces go to global rows; rows of nodes owned elsewhere reach
+their owners through PETSc's stash.
+"""
+import time
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..errors import SceneError
+from .base import ContactFeature, Selection
+from .geometry import patches, project, traction
+from .policy import SEARCH_FACTOR
+from .search import candidate_pairs
+from .surface import SolidTables, default_penalty, surface
+
+
+def _lookup(table, values):
+    """Positions of ``values`` in the unsorted array ``table`` (all present)."""
+    sorter = np.argsort(table)
+    return sorter[np.searchsorted(table, values, sorter=sorter)]
+
+
+class ContactPair(ContactFeature):
+    """Frictionless penalty contact, augmented, of two deformable surfaces.
+
+    Args:
+        name: name in summary.json.
+        slave: surface whose Gauss points meet ...
+        master: ... the segments of this surface (its outward normal faces the slave).
+        penalty: pressure per unit penetration (MPa/mm); default: PENALTY_FACTOR times the
+            series stiffness E/h of the two surface layers (``policy.py``). An expert's knob:
+            the augmented Lagrangian makes the answer independent of it.
+        step: index of the load step from which the contact acts.
+        smoothing: length (mm) over which the penalty law is smoothed (``law.py``); 0 (the
+            default): sharp. An expert's knob.
+    """
+
+    symmetric_tangent = False  # the pressure acts along the smoothed normal, not a gap's gradient
+
+    def __init__(self, name, slave, master, penalty=None, step=0, smoothing=0.0):
+        if slave == master:
+            raise SceneError(f"contact {name!r}: slave and master are both {slave!r}; name two surfaces")
+        super().__init__(name, slave, penalty, step, smoothing)
+        self.master_name = master
+
+    def setup(self, solid):
+        comm = solid.comm
+        tables = self.tables = SolidTables(solid)
+        master, slave = surface(solid, tables, self.master_name), surface(solid, tables, self.slave_name)
+        self.kind, self.slave_kind = master.kind, slave.kind
+
+        # slave points: the Gauss points of the owned slave facets
+        kind = slave.kind
+        n_gauss = len(kind.gauss_weights)
+        N, dN = kind.shape(kind.gauss_points)
+        X = tables.X[slave.facets]  # (m, k, 3)
+        a = np.einsum("gab,mai->mgbi", dN, X)
+        jacobian = np.linalg.norm(np.cross(a[:, :, 0], a[:, :, 1]), axis=2)  # (m, g)
+        self.point_facet = np.repeat(np.arange(len(slave.facets)), n_gauss)
+        self.point_N = np.tile(N, (len(slave.facets), 1))
+        self.weight = (jacobian * kind.gauss_weights).ravel()
+        self.point_X = np.einsum("ga,mai->mgi", N, X).reshape(-1, 3)
+        self.thickness = slave.thickness[self.point_facet]
+        node_penalty = np.full(len(slave.facets), self.penalty) if self.penalty is not None else \
+            default_penalty(slave.stiffness, master.mean_stiffness)
+        self.alpha = node_penalty[self.point_facet]
+        self.facet_dofs = tables.dofs[slave.facets]  # (m, k, 3) local, ghosts included
+        self.facet_global = tables.global_index[self.facet_dofs].reshape(len(slave.facets), -1)
+        self.facet_node_global = self.facet_global[:, ::3].astype(np.int64)
+        self.slave_dofs = tables.dofs[slave.nodes]
+        self.point_nodes = slave.facets[self.point_facet]
+        self._setup_common(solid)
+
+        # the master surface on every rank: the nodes each rank owns, in rank order
+        self.master_dofs = tables.dofs[master.nodes]
+        self.master_counts = 3 * np.array(comm.allgather(len(master.nodes)))
+        gathered = comm.allgather((tables.global_index[master.nodes], tables.global_index[self.master_dofs],
+                                   tables.X[master.nodes], tables.global_index[master.facets], master.thickness))
+        node_global = np.concatenate([g[0] for g in gathered]).astype(np.int64)
+        self.master_global = np.concatenate([g[1] for g in gathered]).reshape(-1, 3)
+        self.master_X = np.concatenate([g[2] for g in gathered]).reshape(-1, 3)
+        self.segments = _lookup(node_global, np.concatenate([g[3] for g in gathered]).reshape(-1, self.kind.corners))
+        self.segment_thickness = np.concatenate([g[4] for g in gathered])
+        self.master_node_global = node_global
+        self.patch = patches(self.segments, self.master_X)
+        x = self.master_X[self.segments]
+        self.segment_size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))
+        self.centroid = x.mean(axis=1)
+        self._unreserved = True
+        self.motion, self.pattern_keys = 0.0, None
+        self._last = (self._slave_points(), self.master_positions())
+        self._search()
+        self.pattern_keys = self._keys()
+
+    # -- positions -----------------------------------------------------------------------
+    def master_positions(self):
+        """Current coordinates of every master node (collective: gathers the displacements)."""
+        return self.master_X + self._gather_master(self.solid.w.x.array)
+
+    def _gather_master(self, values):
+        """The master nodes' entries (n, 3) of a mixed vector's local array, from every rank."""
+        start = time.perf_counter()
+        mine = np.ascontiguousarray(values[self.master_dofs]).ravel()
+        u = np.empty(self.master_counts.sum())
+        self.solid.comm.Allgatherv(mine, [u, self.master_counts])
+        self.timing["gather"] += time.perf_counter() - start
+        return u.reshape(-1, 3)
+
+    def _facet_nodes(self, values):
+        """Current coordinates (m, k, 3) of the slave facets' nodes, from a ghosted array."""
+        return self.tables.X[self.facet_dofs[:, :, 0]] + values[self.facet_dofs]
+
+    def _slave_points(self, nodes=None):
+        nodes = self._facet_nodes(self.solid.w.x.array) if nodes is None else nodes
+        return np.einsum("na,nai->ni", self.point_N, nodes[self.point_facet])
+
+    def _positions(self):
+        return self._slave_points(), self.master_positions()
+
+    # -- search and selection ------------------------------------------------------------
+    def _search(self):
+        """Candidate segments of each point, from the current positions."""
+        start = time.perf_counter()
+        xs, xm = self._slave_points(), self.master_positions()
+        moved = max(np.abs(xs - self._last[0]).max(initial=0.0), np.abs(xm - self._last[1]).max(initial=0.0))
+        self.motion = self.solid.comm.allreduce(moved, op=MPI.MAX) or self.motion
+        self._last = (xs, xm)
+        x = xm[self.segments]
+        reach = (SEARCH_FACTOR * self.segment_size + 2.0 * self.motion)[:, None]
+        point, seg = candidate_pairs(xs, x.min(axis=1) - reach, x.max(axis=1) + reach)
+        # a segment that shares a node with the point's own facet is the same body's neighbour
+        facet_nodes = self.facet_node_global[self.point_facet[point]]
+        shared = np.any(self.master_node_global[self.segments[seg]][:, :, None] == facet_nodes[:, None, :], axis=(1, 2))
+        self.cand_point, self.cand_seg = point[~shared], seg[~shared]
+        self.timing["search"] += time.perf_counter() - start
+
+    def _select(self, positions):
+        xs, xm = positions
+        point, seg = self.cand_point, self.cand_seg
+        proj = project(xs[point], self.point_N[point], xm[self.patch.nodes[seg]], self.patch.rows(seg), self.kind)
+        ok = proj.inside & (-proj.g <= self.segment_thickness[seg])
+        point, seg, g = point[ok], seg[ok], proj.g[ok]
+        c = self.centroid[seg]
+        order = np.lexsort((c[:, 2], c[:, 1], c[:, 0], np.abs(g), point))
+        first = order[np.r_[True, point[order][1:] != point[order][:-1]]] if len(order) else order
+        return Selection(point[first], seg[first], g[first])
+
+    def _forces(self, sel, index, p, k, tangent):
+        point, seg = sel.point[index], sel.target[index]
+        xs, xm = self._selection[0]
+        proj = project(xs[point], self.point_N[point], xm[self.patch.nodes[seg]], self.patch.rows(seg), self.kind,
+                       derivatives=True)
+        r, K = traction(self.weight[point], p, k, proj, self.point_N[point])
+        rows = np.hstack([self.facet_global[self.point_facet[point]],
+                          self.master_global[self.patch.nodes[seg]].reshape(len(point), 3 * self.patch.nodes.shape[1])])
+        return rows, r, K if tangent else None, proj.normal
+
+    def _gaps_along(self, du):
+        """The points that project on a segment now, and their gaps at the state changed by
+        fraction * du as a function of fraction (a number, or one per point)."""
+        sel = self._selection_now()
+        point, seg = sel.point, sel.target
+        ghosted = self._ghosted(du)
+        xs = self._slave_points()[point]
+        dxs = self._slave_points(ghosted[self.facet_dofs])[point]
+        xm = self.master_positions()[self.patch.nodes[seg]]
+        dxm = self._gather_master(du)[self.patch.nodes[seg]]
+        rows = self.patch.rows(seg)
+
+        def gaps(fraction):
+            fraction = np.broadcast_to(fraction, point.shape)
+            return project(xs + fraction[:, None] * dxs, self.point_N[point], xm + fraction[:, None, None] * dxm,
+                           rows, self.kind).g
+        return point, gaps
+
+    def _loaded_nodes(self, point):
+        """How many slave nodes (over all ranks) belong to a facet with a loaded point."""
+        mine = np.unique(self.facet_node_global[self.point_facet[point]])
+        return int(len(np.unique(np.concatenate(self.solid.comm.allgather(mine)))))
+
+    # -- the matrix pattern --------------------------------------------------------------
+    def _candidate_elements(self):
+        """The distinct (slave facet, segment) candidate pairs."""
+        return np.unique(np.column_stack([self.point_facet[self.cand_point], self.cand_seg]), axis=0)
+
+    def _keys(self):
+        """The (row node, column node) pairs the candidates may couple, as int64 keys."""
+        pairs = self._candidate_elements()
+        slave = self.facet_node_global[pairs[:, 0]]
+        master = self.master_node_global[self.patch.nodes[pairs[:, 1]]]
+        nodes = np.hstack([slave, master])
+        keys = nodes[:, :, None] * 2**31 + nodes[:, None, :]
+        return np.unique(keys)
+
+    def _reserve(self, A):
+        """Zeros in A for every candidate element, once after each search: PETSc drops the
+        preallocated room a final assembly left unused, so a point that meets a new segment
+        later in the increment would cost a malloc."""
+        if not self._unreserved:
+            return
+        pairs = self._candidate_elements()
+        rows = np.hstack([self.facet_global[pairs[:, 0]],
+                          self.master_global[self.patch.nodes[pairs[:, 1]]].reshape(len(pairs), 3 * self.patch.nodes.shape[1])])
+        zeros = np.zeros((rows.shape[1], rows.shape[1]))
+        for element in rows:
+            A.setValues(element, element, zeros, addv=PETSc.InsertMode.ADD_VALUES)
+        self._unreserved = False
+
+    def begin_increment(self):
+        self._search()
+        self._unreserved = True
+        keys = self._keys()
+        if np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
+            return False
+        self.pattern_keys = keys
+        return True
+
+    def coupling(self):
+        """Global (row, col) dofs of every node pair the candidates may couple."""
+        node_dofs = np.vstack([self.facet_global.reshape(-1, 3), self.master_global])
+        node_ids = node_dofs[:, 0].astype(np.int64)
+        row = node_dofs[_lookup(node_ids, self.pattern_keys // 2**31)]
+        col = node_dofs[_lookup(node_ids, self.pattern_keys % 2**31)]
+        return np.repeat(row, 3, axis=1).ravel(), np.tile(col, (1, 3)).ravel()

@@ -1,0 +1,157 @@
+"""Frictionless contact of a surface's nodes with a rigid plane, sphere or cylinder.
+
+A rigid shape has an exact, smooth gap function g(x) with its gradient and Hessian, so its
+points are the slave nodes (with their tributary areas) and the law acts along grad g:
+residual -W p grad g and the exact tangent W (k grad g grad g^T - p Hess g) (the normal of a
+sphere or cylinder turns with the node).
+"""
+import numpy as np
+
+from ..errors import SceneError
+from .base import ContactFeature, Selection
+from .surface import SolidTables, default_penalty, surface
+
+
+def _unit(vector, what):
+    v = np.asarray(vector, dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) == 0:
+        raise SceneError(f"{what} must be a non-zero vector of three numbers, got {vector!r}")
+    return v / np.linalg.norm(v)
+
+
+def _point(value, what):
+    v = np.asarray(value, dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise SceneError(f"{what} must be three numbers, got {value!r}")
+    return v
+
+
+class Plane:
+    """The half-space the solid must stay in: (x - point) . normal >= 0."""
+
+    def __init__(self, point, normal):
+        self.point, self.normal = _point(point, "plane point"), _unit(normal, "plane normal")
+
+    def gap(self, x, shift):
+        """Gap g (n,), grad g (n, 3) and Hess g (n, 3, 3; None: zero) at points x (n, 3)."""
+        g = (x - self.point - shift) @ self.normal
+        return g, np.broadcast_to(self.normal, x.shape), None
+
+
+class _Round:
+    """Sphere or cylinder: g = +-(rho - radius), rho the distance to the centre (or axis)."""
+
+    def __init__(self, radius, inside):
+        if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not np.isfinite(radius) or radius <= 0:
+            raise SceneError(f"radius must be a positive number, got {radius!r}")
+        self.radius, self.sign = float(radius), -1.0 if inside else 1.0
+
+    def gap(self, x, shift):
+        r = self._radial(x - self.origin - shift)
+        rho = np.linalg.norm(r, axis=1)
+        e = r / rho[:, None]
+        # Hessian of rho: (I - a a^T - e e^T) / rho, without the a a^T term for a sphere
+        hessian = (self._projector - e[:, :, None] * e[:, None, :]) / rho[:, None, None]
+        return self.sign * (rho - self.radius), self.sign * e, self.sign * hessian
+
+
+class Sphere(_Round):
+    def __init__(self, center, radius, inside=False):
+        super().__init__(radius, inside)
+        self.origin, self._projector = _point(center, "sphere center"), np.eye(3)
+
+    def _radial(self, d):
+        return d
+
+
+class Cylinder(_Round):
+    def __init__(self, point, axis, radius, inside=False):
+        super().__init__(radius, inside)
+        self.origin, self.axis = _point(point, "cylinder point"), _unit(axis, "cylinder axis")
+        self._projector = np.eye(3) - np.outer(self.axis, self.axis)
+
+    def _radial(self, d):
+        return d @ self._projector
+
+
+SHAPES = {"plane": Plane, "sphere": Sphere, "cylinder": Cylinder}
+
+
+class RigidContact(ContactFeature):
+    """Frictionless penalty contact, augmented, of a surface's nodes with a rigid body.
+
+    Args:
+        name: name in summary.json.
+        slave: the solid's surface that touches the rigid body.
+        shape: "plane" (point, normal: the solid stays on the side the normal points to),
+            "sphere" (center, radius) or "cylinder" (point, axis, radius): the solid stays
+            outside, or inside with ``inside=True``.
+        penalty: pressure per unit penetration (MPa/mm); default PENALTY_FACTOR * E / h of
+            the slave's elements (``policy.py``); an expert's knob.
+        displacement: rigid translation of the body, reached at the end of its step
+            (ramped with the load factor); None: it stays.
+        step: index of the load step from which the contact acts.
+        smoothing: as for ``ContactPair``.
+        **shape_params: the shape's parameters.
+    """
+
+    symmetric_tangent = True  # the Hessian of a potential
+
+    def __init__(self, name, slave, shape, penalty=None, step=0, displacement=(0.0, 0.0, 0.0), smoothing=0.0,
+                 **shape_params):
+        super().__init__(name, slave, penalty, step, smoothing)
+        if shape not in SHAPES:
+            raise SceneError(f"contact {name!r}: unknown rigid shape {shape!r}; choose one of {sorted(SHAPES)}")
+        try:
+            self.shape = SHAPES[shape](**shape_params)
+        except TypeError as error:
+            raise SceneError(f"contact {name!r}: rigid {shape}: {error}".replace("__init__() ", "")) from None
+        except SceneError as error:
+            raise SceneError(f"contact {name!r}: rigid {shape}: {error}") from None
+        self.displacement = np.zeros(3) if displacement is None else \
+            _point(displacement, f"contact {name!r}: displacement")
+        self.shift = np.zeros(3)
+
+    def setup(self, solid):
+        tables = self.tables = SolidTables(solid)
+        s = surface(solid, tables, self.slave_name)
+        self.weight = s.node_area
+        self.alpha = np.full(len(s.nodes), self.penalty) if self.penalty is not None else \
+            default_penalty(s.node_stiffness, np.inf)
+        self.thickness = np.sqrt(s.node_area)  # the size of the elements around the node
+        self.slave_dofs = tables.dofs[s.nodes]
+        self.slave_global = tables.global_index[self.slave_dofs]
+        self.point_X = tables.X[s.nodes]
+        self.point_nodes, self.point_N = self.slave_dofs[:, :1], np.ones((len(s.nodes), 1))
+        self._setup_common(solid)
+
+    def set_load_factor(self, factor):
+        self.shift = factor * self.displacement
+
+    def _positions(self):
+        return (self.point_X + self.solid.w.x.array[self.slave_dofs], self.shift.copy())
+
+    def _select(self, positions):
+        g = self.shape.gap(positions[0], self.shift)[0]
+        return Selection(np.arange(len(g)), np.full(len(g), -1), g)
+
+    def _forces(self, sel, index, p, k, tangent):
+        x = self._selection[0][0][sel.point[index]]
+        _, grad, hess = self.shape.gap(x, self.shift)
+        grad = np.ascontiguousarray(grad)
+        w = self.weight[sel.point[index]]
+        r = -(w * p)[:, None] * grad
+        K = None
+        if tangent:
+            K = (w * k)[:, None, None] * grad[:, :, None] * grad[:, None, :]
+            if hess is not None:
+                K -= (w * p)[:, None, None] * hess
+        return self.slave_global[sel.point[index]], r, K, grad
+
+    def _gaps_along(self, du):
+        x, dx = self._positions()[0], du[self.slave_dofs]
+        point = np.arange(len(x))
+        return point, lambda fraction: self.shape.gap(x + np.broadcast_to(fraction, len(x))[:, None] * dx, self.shift)[0]
+
+    def _loaded_nodes(self, point):
+        return int(self.solid.comm.allreduce(len(point)))
