@@ -19,6 +19,16 @@ the converged answer (the residual tolerances decide it, as before):
   quadratic last step lands far below it: after a reused factorization, convergence needs a
   residual ``POLISH`` times below the tolerance (or a chord step that no longer contracts, at
   round-off), which costs a triangular solve or two and keeps the answer Newton's.
+
+Globalization, so that a hard increment ends quickly, either converged or cut back:
+
+* convergence is judged block by block (``Problem.residual_blocks``: forces, prescribed
+  displacements, incompressibility, each cavity's liquid law), so that no block's units hide
+  another's: a block has converged when its 2-norm is at most ``snes_rtol`` times the largest
+  norm it had in this Newton solve, or at most ``snes_atol`` (in its own units: N, mm or mm^3
+  for a model in mm and MPa). The largest norm, not the first, is the block's scale: a block
+  that starts at zero (the pressure rows of a displacement-driven increment) is judged
+  against the imbalance Newton's first step gave it. Every block must have converged.
 """
 import contextlib
 import dataclasses
@@ -174,22 +184,30 @@ class NewtonSolver:
             y.scale(fraction)
         return fraction < 1.0
 
+    def _block_norms(self, r):
+        """2-norms of the residual's blocks (``Problem.residual_blocks``; collective)."""
+        local = np.array([np.sum(r[rows] ** 2) for _, rows in self.problem.residual_blocks])
+        return np.sqrt(self.problem.comm.allreduce(local))
+
     def _converged(self, snes, its, norms):
-        """PETSc's default test (SNESConvergedDefault), POLISH times stricter after a chord
-        step that still contracted (see the module docstring); at most ``max_tangents``
-        steps with a new tangent."""
+        """Every block of the residual below its tolerance, max(snes_rtol * its largest norm
+        in this solve, snes_atol), POLISH times stricter after a chord step that still
+        contracted (see the module docstring); at most ``max_tangents`` steps with a new
+        tangent."""
         xnorm, step, fnorm = norms
         rtol, atol, stol, _ = snes.getTolerances()
         if its == 0:
             self.initial_norm = fnorm
         if not np.isfinite(fnorm):
             return _REASON.DIVERGED_FNORM_NAN
+        blocks = self._block_norms(snes.getFunction()[0].array_r)
+        self.block_norms.append(blocks)
+        self.block_scales = np.maximum(self.block_scales, blocks)
+        tolerances = np.maximum(rtol * self.block_scales, atol)
         contracting = its and fnorm <= self.reuse_contraction * self.residual_norms[-2]
         polish = POLISH if self.reused and contracting else 1.0
-        if fnorm < polish * atol:
-            return _REASON.CONVERGED_FNORM_ABS
-        if its and fnorm <= polish * rtol * self.initial_norm:
-            return _REASON.CONVERGED_FNORM_RELATIVE
+        if np.all(blocks <= polish * tolerances):
+            return _REASON.CONVERGED_FNORM_ABS if np.all(blocks <= polish * atol) else _REASON.CONVERGED_FNORM_RELATIVE
         if its and step < stol * xnorm:
             return _REASON.CONVERGED_SNORM_RELATIVE
         if its and 0 < self.divergence and fnorm > self.divergence * self.initial_norm:
@@ -217,6 +235,7 @@ class NewtonSolver:
         start (else after HOLD_AFTER iterations)."""
         self.problem.hold(resettle)
         self.residual_norms = []
+        self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
         self.tangents = 0
         self.problem.inverted = None
         with self._our_defaults():  # MUMPS reads its options when it factorizes

@@ -1,0 +1,86 @@
+"""Newton's globalization (solver.py): convergence judged block by block."""
+import contextlib
+
+import numpy as np
+import pytest
+from petsc4py import PETSc
+
+import eyeball_fenicsx as ef
+from eyeball_fenicsx.cavity import LiquidCavity
+from eyeball_fenicsx.solver import PREFIX
+
+SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
+
+
+def quiet(message):
+    pass
+
+
+@contextlib.contextmanager
+def petsc_options(**options):
+    """PETSc options of the scenes built inside, removed again on leaving (same on every rank)."""
+    database = PETSc.Options()
+    for key, value in options.items():
+        database[PREFIX + key] = value
+    try:
+        yield
+    finally:
+        for key in options:
+            database.delValue(PREFIX + key)
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. Every block of the residual against its own scale
+
+
+def filled_sphere(sphere_mesh, rtol):
+    """The seed's vitreous (K = 2083.3 MPa) in a retina-soft thick sphere (c10 = 0.0008 MPa,
+    A = 1, B = 2), 5 % of its volume injected in one increment, plain Newton: the wall's
+    forces are 1e-5 of the liquid's volume residual. Returns (final step, scene)."""
+    with petsc_options(snes_rtol=rtol):
+        cavity = LiquidCavity("liquid", "inner", 2083.3, 0.0, symmetry=["x", "y", "z"])
+        scene = ef.Scene("vitreous", sphere_mesh(n=4, layers=2), {"wall": ef.NeoHooke(0.0008)},
+                         features=SYMMETRY + [cavity], probes={"inner": [1.0, 0.0, 0.0]},
+                         solver=ef.SolverSettings(increments=1, reuse_contraction=0.0), log=quiet).build()
+        cavity.dV_inj = 0.05 * cavity.V_ini
+        return scene.run()["steps"][-1], scene
+
+
+def test_a_small_block_is_not_hidden_by_a_large_one(sphere_mesh):
+    """With snes_rtol = 1e-4, the whole residual falls below 1e-4 of its first norm (the
+    liquid's volume residual) one Newton iteration before the wall's forces fall below 1e-4 of
+    theirs: a test on the whole residual (PETSc's default) would stop there. Judged block by
+    block, Newton goes on until each block is below 1e-4 of its own largest norm, and the
+    pressure and displacement are those a tight tolerance gives."""
+    rtol, atol = 1e-4, 1e-11
+    final, scene = filled_sphere(sphere_mesh, rtol)
+    newton = scene.newton
+    names = [name for name, _ in scene.problem.residual_blocks]
+    assert names == ["force", "prescribed", "incompressibility", "liquid"]
+    blocks, whole = np.array(newton.block_norms), np.array(newton.residual_norms)
+    force, liquid = names.index("force"), names.index("liquid")
+    assert blocks[:, force].max() < 1e-4 * blocks[:, liquid].max()  # the wall's block is the small one
+
+    stops_whole = next(k for k in range(1, len(whole)) if whole[k] <= max(rtol * whole[0], atol))
+    assert stops_whole < len(whole) - 1
+    assert blocks[stops_whole, force] > 3 * max(rtol * blocks[:, force].max(), atol)
+    tolerances = np.maximum(rtol * blocks.max(axis=0), atol)
+    assert np.all(blocks[-1] <= tolerances)
+
+    tight, _ = filled_sphere(sphere_mesh, 1e-12)
+    assert final["cavities"]["liquid"]["pressure"] == pytest.approx(tight["cavities"]["liquid"]["pressure"], rel=1e-8)
+    assert final["probes"]["inner"] == pytest.approx(tight["probes"]["inner"], rel=1e-8)
+
+
+def test_blocks_follow_the_problem(sphere_mesh):
+    """Every owned row of the residual is in exactly one block: the displacement dofs split
+    into free and prescribed, the pressure dofs, and the cavity's row on the last rank."""
+    cavity = LiquidCavity("liquid", "inner", 10.0, symmetry=["x", "y", "z"])
+    scene = ef.Scene("rows", sphere_mesh(n=2, layers=1), {"wall": ef.NeoHooke(0.5)}, features=SYMMETRY + [cavity],
+                     log=quiet).build()
+    problem = scene.problem
+    problem.begin_step(0)
+    rows = np.concatenate([rows for _, rows in problem.residual_blocks])
+    assert np.array_equal(np.sort(rows), np.arange(problem.n_owned + problem.n_extra_local))
+    prescribed = dict(problem.residual_blocks)["prescribed"]
+    assert np.array_equal(prescribed, problem.bc_rows)
