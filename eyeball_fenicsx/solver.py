@@ -28,7 +28,13 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   norm it had in this Newton solve, or at most ``snes_atol`` (in its own units: N, mm or mm^3
   for a model in mm and MPa). The largest norm, not the first, is the block's scale: a block
   that starts at zero (the pressure rows of a displacement-driven increment) is judged
-  against the imbalance Newton's first step gave it. Every block must have converged.
+  against the imbalance Newton's first step gave it. Every block must have converged;
+* stagnation: a Newton solve whose residual, each block divided by its tolerance, has not
+  reached a new minimum in ``STAGNATION_WINDOW`` iterations (a cycle, or steps that no longer
+  help) stops at once as "stagnated", and the increment is cut back; unless the whole
+  residual has met PETSc's default test (its 2-norm at most ``snes_rtol`` times its first, or
+  ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
+  below when its terms are far larger than its imbalance, and the solve has converged.
 """
 import contextlib
 import dataclasses
@@ -55,6 +61,7 @@ HOLD_AFTER = 8  # Newton iterations after which contact nodes keep their segment
 SETTLE_PASSES = 4  # Newton solves after the first one while contact nodes change segments
 CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
+STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
 _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
 _SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
@@ -193,7 +200,7 @@ class NewtonSolver:
         """Every block of the residual below its tolerance, max(snes_rtol * its largest norm
         in this solve, snes_atol), POLISH times stricter after a chord step that still
         contracted (see the module docstring); at most ``max_tangents`` steps with a new
-        tangent."""
+        tangent; stagnation ends the solve."""
         xnorm, step, fnorm = norms
         rtol, atol, stol, _ = snes.getTolerances()
         if its == 0:
@@ -212,9 +219,24 @@ class NewtonSolver:
             return _REASON.CONVERGED_SNORM_RELATIVE
         if its and 0 < self.divergence and fnorm > self.divergence * self.initial_norm:
             return _REASON.DIVERGED_DTOL
+        if self._stagnated(tolerances):
+            # a block can stall at its round-off above its tolerance (its terms are far larger
+            # than its imbalance); then the whole residual decides, as PETSc's default test
+            if fnorm <= max(rtol * self.initial_norm, atol):
+                return _REASON.CONVERGED_FNORM_RELATIVE
+            self.stopped = "stagnated"
+            return _REASON.DIVERGED_LOCAL_MIN
         if self.tangents >= self.max_tangents and not contracting:  # the next step needs a new one
             return _REASON.DIVERGED_MAX_IT
         return _REASON.ITERATING
+
+    def _stagnated(self, tolerances):
+        """No new minimum of the residual, each block in units of its tolerance, in the last
+        STAGNATION_WINDOW iterations: a cycle of period up to that, or steps that no longer help."""
+        if len(self.block_norms) <= STAGNATION_WINDOW:
+            return False
+        scaled = np.max(np.array(self.block_norms) / tolerances, axis=1)
+        return scaled[-STAGNATION_WINDOW:].min() >= scaled[:-STAGNATION_WINDOW].min()
 
     def _symmetric(self, A):
         with _SYMMETRY_CHECK:
@@ -237,13 +259,14 @@ class NewtonSolver:
         self.residual_norms = []
         self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
         self.tangents = 0
+        self.stopped = None  # or why the solve stopped where PETSc has no reason of its own ("stagnated")
         self.problem.inverted = None
         with self._our_defaults():  # MUMPS reads its options when it factorizes
             self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
         norm = self.residual_norms[-1] if self.residual_norms else float("nan")
         converged = reason > 0 and np.isfinite(norm)
-        return converged, self.snes.getIterationNumber(), norm, _REASONS.get(reason, str(reason))
+        return converged, self.snes.getIterationNumber(), norm, self.stopped or _REASONS.get(reason, str(reason))
 
 
 def ramp(feature_step, step_index, t):

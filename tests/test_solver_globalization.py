@@ -1,4 +1,5 @@
-"""Newton's globalization (solver.py): convergence judged block by block."""
+"""Newton's globalization (solver.py): convergence judged block by block, stagnation ends a
+solve at once."""
 import contextlib
 
 import numpy as np
@@ -6,8 +7,9 @@ import pytest
 from petsc4py import PETSc
 
 import eyeball_fenicsx as ef
+from eyeball_fenicsx.analytic import sphere_pressure
 from eyeball_fenicsx.cavity import LiquidCavity
-from eyeball_fenicsx.solver import PREFIX
+from eyeball_fenicsx.solver import PREFIX, STAGNATION_WINDOW
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
 
@@ -84,3 +86,24 @@ def test_blocks_follow_the_problem(sphere_mesh):
     assert np.array_equal(np.sort(rows), np.arange(problem.n_owned + problem.n_extra_local))
     prescribed = dict(problem.residual_blocks)["prescribed"]
     assert np.array_equal(prescribed, problem.bc_rows)
+
+
+# ---------------------------------------------------------------------------------------------
+# 2. Stagnation
+
+
+def test_newton_without_an_equilibrium_stops_as_stagnated(sphere_mesh):
+    """A thin neo-Hookean sphere (B/A = 1.1) under 1.2 times its largest pressure (Ogden 1984,
+    eq. 5.2.38: the pressure has a maximum in the inner stretch) has no equilibrium. Newton
+    without a line search, with the 30 iterations a contact scene gets, must stop as soon as
+    its residual stops falling, not spend them."""
+    c = {(1, 0): 0.5}
+    p_max = max(sphere_pressure(lam, c, 1.0, 1.1) for lam in np.linspace(1.05, 2.0, 400))
+    scene = ef.Scene("beyond", sphere_mesh(n=6, layers=2, outer_radius=1.1), {"wall": ef.MooneyRivlin(c)},
+                     features=SYMMETRY + [ef.Pressure("inner", 1.2 * p_max)], log=quiet,
+                     solver=ef.SolverSettings(increments=1, max_cutbacks=0))
+    with petsc_options(snes_linesearch_type="basic", snes_max_it=30), \
+            pytest.raises(ef.ConvergenceError, match="last try: stagnated"):
+        scene.run()
+    iterations = len(scene.newton.residual_norms) - 1
+    assert iterations <= STAGNATION_WINDOW + 2
