@@ -34,7 +34,13 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   help) stops at once as "stagnated", and the increment is cut back; unless the whole
   residual has met PETSc's default test (its 2-norm at most ``snes_rtol`` times its first, or
   ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
-  below when its terms are far larger than its imbalance, and the solve has converged.
+  below when its terms are far larger than its imbalance, and the solve has converged;
+* a Newton step that would invert an element (det F <= 0 at an element's midpoint, as
+  ``formulation.JacobianGuard`` watches) is halved before the line search, up to
+  ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
+  ``Feature.step_fraction``); one that still inverts ends the solve ("inverting step") with
+  the element's location. A secant predictor that would invert an element is halved alike,
+  or dropped.
 """
 import contextlib
 import dataclasses
@@ -62,6 +68,7 @@ SETTLE_PASSES = 4  # Newton solves after the first one while contact nodes chang
 CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
+MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
 _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
 _SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
@@ -122,11 +129,11 @@ class NewtonSolver:
         snes.setFunction(problem.F, problem.b)
         snes.setJacobian(self._jacobian, problem.A)
         snes.setConvergenceTest(self._converged)
-        if self.limits_steps:
-            snes.setLineSearchPreCheck(self._limit_step)
+        snes.setLineSearchPreCheck(self._limit_step)
         snes.getKSP().getPC().setType("lu")
         self._set_from_options()
         self.residual_norms = []
+        self.step_halvings = []
         self.factorizations = 0
         snes.setMonitor(self._monitor)
 
@@ -183,13 +190,51 @@ class NewtonSolver:
             self._set_factorization("cholesky" if self._symmetric(A) else "lu")
 
     def _limit_step(self, x, y):
-        """Shorten the Newton step x -> x - y where it would close a contact gap too far
-        (``Feature.step_fraction``); returns whether y changed."""
-        self.problem.vector_to_state(x)
-        fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
-        if fraction < 1.0:
-            y.scale(fraction)
-        return fraction < 1.0
+        """Line-search precheck: shorten the Newton step x -> x - y where it would close a
+        contact gap too far (``Feature.step_fraction``) or invert an element
+        (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
+        however short is not taken: y is zeroed and the solve ends as "inverting step"."""
+        fraction = 1.0
+        if self.limits_steps:
+            self.problem.vector_to_state(x)
+            fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
+            if fraction < 1.0:
+                y.scale(fraction)
+        halvings = self.shorten_while_inverting(x, y)
+        self.step_halvings.append(halvings)
+        if halvings is None:
+            self.stopped = f"inverting step, halved {MAX_STEP_HALVINGS} times"
+            y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
+        return fraction < 1.0 or halvings != 0
+
+    def shorten_while_inverting(self, x, y):
+        """Halve the step x -> x - y while it would invert an element (det F <= 0 at an element's
+        midpoint, ``formulation.JacobianGuard``), at most MAX_STEP_HALVINGS times; returns the
+        number of halvings, or None if x - y still inverts (then ``Problem.inverted`` tells where
+        the full step did). Leaves the solid at x (collective)."""
+        full_step = self._inversion_at(x, y)
+        det_min, halvings = full_step[0], 0
+        while not det_min > 0 and halvings < MAX_STEP_HALVINGS:
+            y.scale(0.5)
+            halvings += 1
+            det_min = self._inversion_at(x, y)[0]
+        self._set_displacement(x.array_r[: self.problem.n_owned])  # back to x, which the features' caches describe
+        if det_min > 0:
+            return halvings
+        if self.problem.inverted is None:  # the first inversion of this solve: where it began
+            self.problem.inverted = full_step
+        return None
+
+    def _inversion_at(self, x, y):
+        """(min det F, its location) of the solid at x - y (collective); leaves the solid there."""
+        n = self.problem.n_owned
+        self._set_displacement(x.array_r[:n] - y.array_r[:n])
+        return self.problem.guard.check()
+
+    def _set_displacement(self, owned):
+        w = self.problem.solid.w
+        w.x.array[: self.problem.n_owned] = owned
+        w.x.scatter_forward()
 
     def _block_norms(self, r):
         """2-norms of the residual's blocks (``Problem.residual_blocks``; collective)."""
@@ -200,11 +245,13 @@ class NewtonSolver:
         """Every block of the residual below its tolerance, max(snes_rtol * its largest norm
         in this solve, snes_atol), POLISH times stricter after a chord step that still
         contracted (see the module docstring); at most ``max_tangents`` steps with a new
-        tangent; stagnation ends the solve."""
+        tangent; stagnation and inverting steps end the solve."""
         xnorm, step, fnorm = norms
         rtol, atol, stol, _ = snes.getTolerances()
         if its == 0:
             self.initial_norm = fnorm
+        if self.stopped:  # by the line-search precheck
+            return _REASON.DIVERGED_FUNCTION_DOMAIN
         if not np.isfinite(fnorm):
             return _REASON.DIVERGED_FNORM_NAN
         blocks = self._block_norms(snes.getFunction()[0].array_r)
@@ -259,7 +306,8 @@ class NewtonSolver:
         self.residual_norms = []
         self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
         self.tangents = 0
-        self.stopped = None  # or why the solve stopped where PETSc has no reason of its own ("stagnated")
+        self.step_halvings = []  # per Newton step: halvings of the step (None: it inverted however short)
+        self.stopped = None  # or why the solve stopped where PETSc has no reason of its own
         self.problem.inverted = None
         with self._our_defaults():  # MUMPS reads its options when it factorizes
             self.snes.solve(None, x)
@@ -303,14 +351,14 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         dt = min(dt, 1.0 - t)
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
-        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact
-            secant = x_old - x_prev
-            secant.scale(dt / dt_prev)
-            fraction = 1.0
+        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact nor an inversion
+            step = x_prev - x_old  # the secant, as the step x_old -> x_old - step
+            step.scale(dt / dt_prev)
             if newton.limits_steps:
                 problem.F(None, x_old, problem.b)
-                fraction = problem.step_fraction(secant.array_r, problem.b.array_r)
-            x.axpy(fraction, secant)
+                step.scale(problem.step_fraction(-step.array_r, problem.b.array_r))
+            if newton.shorten_while_inverting(x_old, step) is not None:
+                x.axpy(-1.0, step)
         start, factorized = time.perf_counter(), newton.factorizations
         newton.update_pattern()
         converged, its, norm, reason = newton.solve(x)

@@ -1,17 +1,19 @@
 """Newton's globalization (solver.py): convergence judged block by block, stagnation ends a
-solve at once."""
+solve at once, an inverting step is shortened."""
 import contextlib
 
 import numpy as np
 import pytest
 from petsc4py import PETSc
+from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
-from eyeball_fenicsx.analytic import sphere_pressure
+from eyeball_fenicsx.analytic import sphere_pressure, uniaxial_nominal_stress
 from eyeball_fenicsx.cavity import LiquidCavity
 from eyeball_fenicsx.solver import PREFIX, STAGNATION_WINDOW
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
+ROLLERS = [ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}), ef.Dirichlet("z0", {"z": 0.0})]
 
 
 def quiet(message):
@@ -107,3 +109,28 @@ def test_newton_without_an_equilibrium_stops_as_stagnated(sphere_mesh):
         scene.run()
     iterations = len(scene.newton.residual_norms) - 1
     assert iterations <= STAGNATION_WINDOW + 2
+
+
+# ---------------------------------------------------------------------------------------------
+# 3. An inverting Newton step is shortened
+
+
+@pytest.mark.parametrize("line_search", ["basic", "bt"])
+def test_inverting_step_is_shortened_not_cut_back(block_mesh, line_search):
+    """A compressive force of 4 mu on the unit face of an incompressible neo-Hookean block,
+    in one increment. Newton's first step is the linear one, a strain of -4 mu / E = -4/3
+    (E = 3 mu): it turns the block inside out. Halved, it does not, and Newton converges in
+    that one increment, with either line search, to the uniaxial stretch whose nominal stress
+    is the force (Ogden 1984, sec. 7.2)."""
+    c, force = {(1, 0): 0.5}, -4.0  # mu = 2 c10 = 1
+    scene = ef.Scene("crush", block_mesh((2, 1, 1)), {"solid": ef.MooneyRivlin(c)},
+                     features=ROLLERS + [ef.NodalForce([force, 0.0, 0.0], surface="x1")],
+                     probes={"corner": [1.0, 1.0, 1.0]}, log=quiet,
+                     solver=ef.SolverSettings(increments=1, max_cutbacks=0))
+    with petsc_options(snes_linesearch_type=line_search):
+        final = scene.run()["steps"][-1]
+    assert [i["load_factor"] for i in final["increments"]] == [1.0]
+    assert scene.newton.step_halvings[0] >= 1
+    stretch = 1 + final["probes"]["corner"][0]
+    assert stretch == pytest.approx(brentq(lambda lam: uniaxial_nominal_stress(lam, c) - force, 0.05, 1.0), rel=1e-9)
+    assert scene.problem.guard.check()[0] > 0
