@@ -40,7 +40,12 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
   ``Feature.step_fraction``); one that still inverts ends the solve ("inverting step") with
   the element's location. A secant predictor that would invert an element is halved alike,
-  or dropped.
+  or dropped;
+* increment size: after a converged increment that factorized n tangents, the next one is
+  scaled by ``easy_iterations / n``, clipped to [1 / ``growth``, ``growth``], never below the
+  smallest cut-back: a rule aimed at ``easy_iterations`` tangents per increment, as FEBio's
+  auto time stepper aims at ``opt_iter`` iterations (``FECore/FETimeStepController.cpp``,
+  which scales by the square root of that ratio and relaxes toward its largest step).
 """
 import contextlib
 import dataclasses
@@ -84,8 +89,10 @@ class SolverSettings:
         increments: initial number of equal load increments of a step.
         max_cutbacks: the smallest increment is the initial one halved this many times;
             an increment that fails at that size ends the run.
-        growth: factor by which the increment grows after an easy one.
-        easy_iterations: an increment that factorized at most this many tangents is easy (with
+        growth: the largest factor by which an increment grows after a converged one; it
+            shrinks by at most its inverse (1: equal increments, cut back only where one fails).
+        easy_iterations: the target of the step-size rule: the next increment is this increment
+            times easy_iterations / (tangents it factorized), within [1 / growth, growth] (with
             factorization reuse, the cheap chord steps do not count).
         predictor: extrapolate the previous increment to start Newton (secant predictor).
         reuse_contraction: reuse the factorization for the next Newton step after a step that
@@ -95,13 +102,15 @@ class SolverSettings:
     increments: int = 10
     max_cutbacks: int = 10
     growth: float = 2.0
-    easy_iterations: int = 4
+    easy_iterations: int = 5
     predictor: bool = True
     reuse_contraction: float = 0.1
 
     def __post_init__(self):
         if isinstance(self.increments, bool) or not isinstance(self.increments, int) or self.increments < 1:
             raise SceneError(f"solver.increments must be a positive integer, got {self.increments!r}")
+        if not self.growth >= 1:
+            raise SceneError(f"solver.growth must be at least 1 (1: equal increments), got {self.growth!r}")
 
 
 class NewtonSolver:
@@ -324,6 +333,11 @@ def ramp(feature_step, step_index, t):
     return t if step_index == feature_step else 1.0
 
 
+def next_increment_factor(tangents, settings):
+    """The step-size rule: easy_iterations / tangents, within [1 / growth, growth]."""
+    return float(np.clip(settings.easy_iterations / max(tangents, 1), 1 / settings.growth, settings.growth))
+
+
 @dataclasses.dataclass
 class Increment:
     load_factor: float
@@ -382,8 +396,7 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
             x_old.copy(x_prev)
             dt_prev = dt
             use_predictor = settings.predictor
-            if factorized <= settings.easy_iterations:
-                dt *= settings.growth
+            dt = max(dt * next_increment_factor(factorized, settings), smallest)
             continue
         x_old.copy(x)
         problem.vector_to_state(x)

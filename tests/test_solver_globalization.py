@@ -1,5 +1,5 @@
 """Newton's globalization (solver.py): convergence judged block by block, stagnation ends a
-solve at once, an inverting step is shortened."""
+solve at once, an inverting step is shortened, and the increments follow the target rule."""
 import contextlib
 
 import numpy as np
@@ -134,3 +134,44 @@ def test_inverting_step_is_shortened_not_cut_back(block_mesh, line_search):
     stretch = 1 + final["probes"]["corner"][0]
     assert stretch == pytest.approx(brentq(lambda lam: uniaxial_nominal_stress(lam, c) - force, 0.05, 1.0), rel=1e-9)
     assert scene.problem.guard.check()[0] > 0
+
+
+# ---------------------------------------------------------------------------------------------
+# 4. Increments: the target rule
+
+
+def corner_force(block_mesh, growth):
+    """A point force of 2 mu (1, 1, 1) pressing on a corner of the unit cube, in 4 increments
+    to start with. No secant predictor: extrapolated, this state inverts an element at a Gauss
+    point (the inversion guard watches midpoints), and a cut-back would break the rule's chain."""
+    scene = ef.Scene("corner", block_mesh((2, 2, 2)), {"solid": ef.NeoHooke(0.5)},
+                     features=ROLLERS + [ef.NodalForce([-2.0, -2.0, -2.0], point=[1.0, 1.0, 1.0])],
+                     probes={"corner": [1.0, 1.0, 1.0]}, log=quiet,
+                     solver=ef.SolverSettings(increments=4, growth=growth, predictor=False))
+    return scene.run()["steps"][-1]
+
+
+def test_increments_shrink_after_hard_ones_and_grow_again(block_mesh):
+    """The first increment is hard (more tangents than the target of 5): the next is smaller;
+    then easy ones let it grow again, each by target / tangents within [1/2, 2]. With
+    growth = 1 the increments stay equal. A hyperelastic solid under a dead load ends in the
+    same equilibrium whichever path the increments take."""
+    final = corner_force(block_mesh, growth=2.0)
+    t = np.array([0.0] + [i["load_factor"] for i in final["increments"]])
+    tangents = [i["factorizations"] for i in final["increments"]]
+    sizes = np.diff(t)
+    assert tangents[0] > 5 and sizes[1] < sizes[0]
+    assert max(sizes[2:-1]) > sizes[1]
+    for k in range(len(sizes) - 1):
+        expected = sizes[k] * np.clip(5 / tangents[k], 0.5, 2.0)
+        assert sizes[k + 1] == pytest.approx(min(expected, 1 - t[k + 1]), rel=1e-12)
+
+    equal = corner_force(block_mesh, growth=1.0)
+    assert [i["load_factor"] for i in equal["increments"]] == pytest.approx([0.25, 0.5, 0.75, 1.0], rel=1e-14)
+    assert equal["increments"][0]["factorizations"] > 5  # hard, yet the next one is not smaller
+    assert final["probes"]["corner"] == pytest.approx(equal["probes"]["corner"], rel=1e-9)
+
+
+def test_growth_below_one_is_rejected():
+    with pytest.raises(ef.SceneError, match="growth must be at least 1"):
+        ef.SolverSettings(growth=0.5)
