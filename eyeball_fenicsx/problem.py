@@ -14,6 +14,12 @@ numbering of the DOLFINx dofs is unchanged and the bordered matrix
 is one MPIAIJ matrix that MUMPS factorizes directly (the seed's "new algorithm"). It is
 preallocated exactly from the DOLFINx sparsity pattern plus the borders, so assembly does
 no mallocs, and MUMPS reuses its symbolic analysis while the pattern stays the same.
+
+The rows of the residual fall into blocks of different units (``residual_blocks``), which
+Newton judges one by one: the free displacement rows (forces), the prescribed ones
+(x - g, lengths), the solid's pressure rows (the integral of J - 1 over an element, or of
+-p / mu in a compressible region: volumes), and one block per global unknown (a cavity's
+liquid law: a volume).
 """
 import numpy as np
 import ufl
@@ -64,6 +70,12 @@ class Problem:
         self.guard = JacobianGuard(solid)
         self.bcs = []
         self.inverted = None
+        self._displacement_rows, self._pressure_rows = (self._owned_rows(solid.W.sub(i)) for i in range(2))
+
+    def _owned_rows(self, subspace):
+        """Owned local indices in W (block size 1) of a subspace's dofs (collective: collapses it)."""
+        rows = np.asarray(subspace.collapse()[1], dtype=np.int32)
+        return np.sort(rows[rows < self.n_owned])
 
     # -- the matrix ----------------------------------------------------------------------
     def _create_matrix(self):
@@ -126,6 +138,21 @@ class Problem:
         self.bcs = [bc for f in self.features for bc in f.dirichlet_bcs()]
         rows = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in self.bcs]
         self.bc_rows = np.unique(np.concatenate(rows)) if rows else np.empty(0, dtype=np.int32)
+        self.residual_blocks = self._residual_blocks()
+
+    def _residual_blocks(self):
+        """[(name, owned local rows)] of the residual's blocks (see the module docstring); the
+        same names on every rank, a global unknown's rows on the last rank only."""
+        prescribed = np.isin(self._displacement_rows, self.bc_rows)
+        blocks = [("force", self._displacement_rows[~prescribed]), ("prescribed", self._displacement_rows[prescribed]),
+                  ("incompressibility", self._pressure_rows)]
+        index = self.n_owned
+        for f in self.bordered:
+            for k in range(f.num_unknowns):
+                rows = np.array([index] if self.comm.rank == self.last else [], dtype=np.int32)
+                blocks.append((f.name if f.num_unknowns == 1 else f"{f.name} [{k}]", rows))
+                index += 1
+        return blocks
 
     def set_load_factor(self, factors):
         """factors: one ramp value per feature, in the order of ``self.features``."""

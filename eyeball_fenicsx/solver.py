@@ -19,6 +19,33 @@ the converged answer (the residual tolerances decide it, as before):
   quadratic last step lands far below it: after a reused factorization, convergence needs a
   residual ``POLISH`` times below the tolerance (or a chord step that no longer contracts, at
   round-off), which costs a triangular solve or two and keeps the answer Newton's.
+
+Globalization, so that a hard increment ends quickly, either converged or cut back:
+
+* convergence is judged block by block (``Problem.residual_blocks``: forces, prescribed
+  displacements, incompressibility, each cavity's liquid law), so that no block's units hide
+  another's: a block has converged when its 2-norm is at most ``snes_rtol`` times the largest
+  norm it had in this Newton solve, or at most ``snes_atol`` (in its own units: N, mm or mm^3
+  for a model in mm and MPa). The largest norm, not the first, is the block's scale: a block
+  that starts at zero (the pressure rows of a displacement-driven increment) is judged
+  against the imbalance Newton's first step gave it. Every block must have converged;
+* stagnation: a Newton solve whose residual, each block divided by its tolerance, has not
+  reached a new minimum in ``STAGNATION_WINDOW`` iterations (a cycle, or steps that no longer
+  help) stops at once as "stagnated", and the increment is cut back; unless the whole
+  residual has met PETSc's default test (its 2-norm at most ``snes_rtol`` times its first, or
+  ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
+  below when its terms are far larger than its imbalance, and the solve has converged;
+* a Newton step that would invert an element (det F <= 0 at an element's midpoint, as
+  ``formulation.JacobianGuard`` watches) is halved before the line search, up to
+  ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
+  ``Feature.step_fraction``); one that still inverts ends the solve ("inverting step") with
+  the element's location. A secant predictor that would invert an element is halved alike,
+  or dropped;
+* increment size: after a converged increment that factorized n tangents, the next one is
+  scaled by ``easy_iterations / n``, clipped to [1 / ``growth``, ``growth``], never below the
+  smallest cut-back: a rule aimed at ``easy_iterations`` tangents per increment, as FEBio's
+  auto time stepper aims at ``opt_iter`` iterations (``FECore/FETimeStepController.cpp``,
+  which scales by the square root of that ratio and relaxes toward its largest step).
 """
 import contextlib
 import dataclasses
@@ -43,6 +70,8 @@ DEFAULT_OPTIONS = {
 }
 CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
+STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
+MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
 _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
 _SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
@@ -58,8 +87,10 @@ class SolverSettings:
         increments: initial number of equal load increments of a step.
         max_cutbacks: the smallest increment is the initial one halved this many times;
             an increment that fails at that size ends the run.
-        growth: factor by which the increment grows after an easy one.
-        easy_iterations: an increment that factorized at most this many tangents is easy (with
+        growth: the largest factor by which an increment grows after a converged one; it
+            shrinks by at most its inverse (1: equal increments, cut back only where one fails).
+        easy_iterations: the target of the step-size rule: the next increment is this increment
+            times easy_iterations / (tangents it factorized), within [1 / growth, growth] (with
             factorization reuse, the cheap chord steps do not count).
         predictor: extrapolate the previous increment to start Newton (secant predictor).
         reuse_contraction: reuse the factorization for the next Newton step after a step that
@@ -69,13 +100,15 @@ class SolverSettings:
     increments: int = 10
     max_cutbacks: int = 10
     growth: float = 2.0
-    easy_iterations: int = 4
+    easy_iterations: int = 5
     predictor: bool = True
     reuse_contraction: float = 0.1
 
     def __post_init__(self):
         if isinstance(self.increments, bool) or not isinstance(self.increments, int) or self.increments < 1:
             raise SceneError(f"solver.increments must be a positive integer, got {self.increments!r}")
+        if not self.growth >= 1:
+            raise SceneError(f"solver.growth must be at least 1 (1: equal increments), got {self.growth!r}")
 
 
 class NewtonSolver:
@@ -103,11 +136,11 @@ class NewtonSolver:
         snes.setFunction(problem.F, problem.b)
         snes.setJacobian(self._jacobian, problem.A)
         snes.setConvergenceTest(self._converged)
-        if self.limits_steps:
-            snes.setLineSearchPreCheck(self._limit_step)
+        snes.setLineSearchPreCheck(self._limit_step)
         snes.getKSP().getPC().setType("lu")
         self._set_from_options()
         self.residual_norms = []
+        self.step_halvings = []
         self.factorizations = 0
         snes.setMonitor(self._monitor)
 
@@ -162,37 +195,100 @@ class NewtonSolver:
             self._set_factorization("cholesky" if self._symmetric(A) else "lu")
 
     def _limit_step(self, x, y):
-        """Shorten the Newton step x -> x - y where it would close a contact gap too far
-        (``Feature.step_fraction``); returns whether y changed."""
-        self.problem.vector_to_state(x)
-        fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
-        if fraction < 1.0:
-            y.scale(fraction)
-        return fraction < 1.0
+        """Line-search precheck: shorten the Newton step x -> x - y where it would close a
+        contact gap too far (``Feature.step_fraction``) or invert an element
+        (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
+        however short is not taken: y is zeroed and the solve ends as "inverting step"."""
+        fraction = 1.0
+        if self.limits_steps:
+            self.problem.vector_to_state(x)
+            fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
+            if fraction < 1.0:
+                y.scale(fraction)
+        halvings = self.shorten_while_inverting(x, y)
+        self.step_halvings.append(halvings)
+        if halvings is None:
+            self.stopped = f"inverting step, halved {MAX_STEP_HALVINGS} times"
+            y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
+        return fraction < 1.0 or halvings != 0
+
+    def shorten_while_inverting(self, x, y):
+        """Halve the step x -> x - y while it would invert an element (det F <= 0 at an element's
+        midpoint, ``formulation.JacobianGuard``), at most MAX_STEP_HALVINGS times; returns the
+        number of halvings, or None if x - y still inverts (then ``Problem.inverted`` tells where
+        the full step did). Leaves the solid at x (collective)."""
+        full_step = self._inversion_at(x, y)
+        det_min, halvings = full_step[0], 0
+        while not det_min > 0 and halvings < MAX_STEP_HALVINGS:
+            y.scale(0.5)
+            halvings += 1
+            det_min = self._inversion_at(x, y)[0]
+        self._set_displacement(x.array_r[: self.problem.n_owned])  # back to x, which the features' caches describe
+        if det_min > 0:
+            return halvings
+        if self.problem.inverted is None:  # the first inversion of this solve: where it began
+            self.problem.inverted = full_step
+        return None
+
+    def _inversion_at(self, x, y):
+        """(min det F, its location) of the solid at x - y (collective); leaves the solid there."""
+        n = self.problem.n_owned
+        self._set_displacement(x.array_r[:n] - y.array_r[:n])
+        return self.problem.guard.check()
+
+    def _set_displacement(self, owned):
+        w = self.problem.solid.w
+        w.x.array[: self.problem.n_owned] = owned
+        w.x.scatter_forward()
+
+    def _block_norms(self, r):
+        """2-norms of the residual's blocks (``Problem.residual_blocks``; collective)."""
+        local = np.array([np.sum(r[rows] ** 2) for _, rows in self.problem.residual_blocks])
+        return np.sqrt(self.problem.comm.allreduce(local))
 
     def _converged(self, snes, its, norms):
-        """PETSc's default test (SNESConvergedDefault), POLISH times stricter after a chord
-        step that still contracted (see the module docstring); at most ``max_tangents``
-        steps with a new tangent."""
+        """Every block of the residual below its tolerance, max(snes_rtol * its largest norm
+        in this solve, snes_atol), POLISH times stricter after a chord step that still
+        contracted (see the module docstring); at most ``max_tangents`` steps with a new
+        tangent; stagnation and inverting steps end the solve."""
         xnorm, step, fnorm = norms
         rtol, atol, stol, _ = snes.getTolerances()
         if its == 0:
             self.initial_norm = fnorm
+        if self.stopped:  # by the line-search precheck
+            return _REASON.DIVERGED_FUNCTION_DOMAIN
         if not np.isfinite(fnorm):
             return _REASON.DIVERGED_FNORM_NAN
+        blocks = self._block_norms(snes.getFunction()[0].array_r)
+        self.block_norms.append(blocks)
+        self.block_scales = np.maximum(self.block_scales, blocks)
+        tolerances = np.maximum(rtol * self.block_scales, atol)
         contracting = its and fnorm <= self.reuse_contraction * self.residual_norms[-2]
         polish = POLISH if self.reused and contracting else 1.0
-        if fnorm < polish * atol:
-            return _REASON.CONVERGED_FNORM_ABS
-        if its and fnorm <= polish * rtol * self.initial_norm:
-            return _REASON.CONVERGED_FNORM_RELATIVE
+        if np.all(blocks <= polish * tolerances):
+            return _REASON.CONVERGED_FNORM_ABS if np.all(blocks <= polish * atol) else _REASON.CONVERGED_FNORM_RELATIVE
         if its and step < stol * xnorm:
             return _REASON.CONVERGED_SNORM_RELATIVE
         if its and 0 < self.divergence and fnorm > self.divergence * self.initial_norm:
             return _REASON.DIVERGED_DTOL
+        if self._stagnated(tolerances):
+            # a block can stall at its round-off above its tolerance (its terms are far larger
+            # than its imbalance); then the whole residual decides, as PETSc's default test
+            if fnorm <= max(rtol * self.initial_norm, atol):
+                return _REASON.CONVERGED_FNORM_RELATIVE
+            self.stopped = "stagnated"
+            return _REASON.DIVERGED_LOCAL_MIN
         if self.tangents >= self.max_tangents and not contracting:  # the next step needs a new one
             return _REASON.DIVERGED_MAX_IT
         return _REASON.ITERATING
+
+    def _stagnated(self, tolerances):
+        """No new minimum of the residual, each block in units of its tolerance, in the last
+        STAGNATION_WINDOW iterations: a cycle of period up to that, or steps that no longer help."""
+        if len(self.block_norms) <= STAGNATION_WINDOW:
+            return False
+        scaled = np.max(np.array(self.block_norms) / tolerances, axis=1)
+        return scaled[-STAGNATION_WINDOW:].min() >= scaled[:-STAGNATION_WINDOW].min()
 
     def _symmetric(self, A):
         with _SYMMETRY_CHECK:
@@ -210,14 +306,17 @@ class NewtonSolver:
     def solve(self, x):
         """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
         self.residual_norms = []
+        self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
         self.tangents = 0
+        self.step_halvings = []  # per Newton step: halvings of the step (None: it inverted however short)
+        self.stopped = None  # or why the solve stopped where PETSc has no reason of its own
         self.problem.inverted = None
         with self._our_defaults():  # MUMPS reads its options when it factorizes
             self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
         norm = self.residual_norms[-1] if self.residual_norms else float("nan")
         converged = reason > 0 and np.isfinite(norm)
-        return converged, self.snes.getIterationNumber(), norm, _REASONS.get(reason, str(reason))
+        return converged, self.snes.getIterationNumber(), norm, self.stopped or _REASONS.get(reason, str(reason))
 
 
 def ramp(feature_step, step_index, t):
@@ -225,6 +324,11 @@ def ramp(feature_step, step_index, t):
     if step_index < feature_step:
         return 0.0
     return t if step_index == feature_step else 1.0
+
+
+def next_increment_factor(tangents, settings):
+    """The step-size rule: easy_iterations / tangents, within [1 / growth, growth]."""
+    return float(np.clip(settings.easy_iterations / max(tangents, 1), 1 / settings.growth, settings.growth))
 
 
 @dataclasses.dataclass
@@ -254,14 +358,14 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         dt = min(dt, 1.0 - t)
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
-        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact
-            secant = x_old - x_prev
-            secant.scale(dt / dt_prev)
-            fraction = 1.0
+        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact nor an inversion
+            step = x_prev - x_old  # the secant, as the step x_old -> x_old - step
+            step.scale(dt / dt_prev)
             if newton.limits_steps:
                 problem.F(None, x_old, problem.b)
-                fraction = problem.step_fraction(secant.array_r, problem.b.array_r)
-            x.axpy(fraction, secant)
+                step.scale(problem.step_fraction(-step.array_r, problem.b.array_r))
+            if newton.shorten_while_inverting(x_old, step) is not None:
+                x.axpy(-1.0, step)
         start, factorized = time.perf_counter(), newton.factorizations
         newton.update_pattern()
         problem.set_increment(t + dt >= 1.0 - 1e-12)
@@ -280,8 +384,7 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
             x_old.copy(x_prev)
             dt_prev = dt
             use_predictor = settings.predictor
-            if factorized <= settings.easy_iterations:
-                dt *= settings.growth
+            dt = max(dt * next_increment_factor(factorized, settings), smallest)
             continue
         x_old.copy(x)
         problem.vector_to_state(x)
