@@ -15,7 +15,8 @@ Extensions beyond the contract (documented in README.md):
   its ``initial_pressure`` in its step: the eye brought to its IOP) and ``surface`` as a list
   of surface groups (a liquid wetting several surfaces);
 * ``[[injection]]`` (``cavity``, ``volume``, ``step``): liquid added or removed in a step;
-* ``[[contact]] smoothing`` (mm): the penalty law smoothed over that length (contact.py);
+* ``[[contact]] smoothing`` (mm): the penalty law smoothed over that length (contact/law.py);
+  ``symmetry`` (axes): the model's symmetry planes, where the master's normals lie in the plane;
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
   ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
@@ -171,9 +172,12 @@ def _contact(t: _Table, step_of):
         master = t.get("master", "string")
         step = step_of(t)
         try:
-            return ContactPair(name, slave, master, penalty=penalty, step=step, smoothing=smoothing), [slave, master]
+            return ContactPair(name, slave, master, penalty=penalty, step=step, smoothing=smoothing,
+                               symmetry=t.get("symmetry", "strings", [])), [slave, master]
         except SceneError as error:  # the pair's own checks: slave and master differ
             raise t.error(str(error)) from None
+    if t.has("symmetry"):
+        raise t.error("symmetry applies to a master surface (its nodes on the planes); a rigid body has none")
     rigid = t.data["rigid"]
     if not isinstance(rigid, dict):
         raise t.error(f'rigid must be a table, e.g. rigid = {{ shape = "plane", point = [0.0, 0.0, 1.0], '
@@ -380,7 +384,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         surfaces_used.extend((n, t.where) for n in [*ends.values(), *surfaces.values()] if n)
     contacts = set()
     for t, where in _array(data, "contact", path):
-        t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "smoothing", "step"})
+        t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "smoothing", "step", "symmetry"})
         name_ = t.unique_name("contact", contacts)
         contacts.add(name_)
         feature, names = _contact(t, step_of)

@@ -81,7 +81,7 @@ class ContactFeature(Feature):
         self.open_gap = OPEN_RANGE * self.smoothing  # ... and above this they are open for step_fraction
         self.active = False
         self.final_increment, self._passes = True, 0
-        self._relaxation, self._last_update = 1.0, None
+        self._relaxation, self._last_update, self._pending = 1.0, None, None
         self._selection = None  # (the positions it was made at, the Selection)
         # wall seconds, for benchmarks; "gather" (the master surface's displacements) includes
         # waiting for the slowest rank
@@ -152,9 +152,12 @@ class ContactFeature(Feature):
         """Make room in A for the entries contact may add later (nothing by default)."""
 
     def set_increment(self, final):
-        """Whether the coming increment ends its step (the augmentations then go to the end)."""
+        """Whether the coming increment ends its step (the augmentations then go to the end);
+        the last increment's update of the multipliers is taken now."""
         self.final_increment, self._passes = final, 0
         self._relaxation, self._last_update = 1.0, None
+        if self._pending is not None:
+            self.node_multiplier, self._pending, self._selection = self._pending, None, None
 
     def _point_multipliers(self):
         return np.einsum("na,na->n", self.point_N, self.node_multiplier[self.point_nodes])
@@ -201,11 +204,14 @@ class ContactFeature(Feature):
             if dots[1] > 0:
                 self._relaxation = float(np.clip(-self._relaxation * dots[0] / dots[1], 0.1, 10.0))
         self._last_update = update
-        self.node_multiplier = np.maximum(self.node_multiplier + self._relaxation * update, 0.0)
-        self._selection = None
+        relaxed = np.maximum(self.node_multiplier + self._relaxation * update, 0.0)
         self.augmentations += 1
+        if not self.final_increment:  # taken when the next increment starts: the state reported is this one's
+            self._pending = relaxed
+            return True
+        self.node_multiplier, self._selection = relaxed, None
         self._passes += 1
-        return not self.final_increment
+        return False
 
     def _ghosted(self, values):
         """A mixed vector's owned entries, with this rank's ghost entries filled (collective)."""

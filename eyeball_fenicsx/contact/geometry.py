@@ -111,7 +111,10 @@ class Patches:
         next, prev: (m, k, V) for each corner a of the segment, the patch positions of the
             next and previous node of each facet at a (V incidences, padded); ``mask``
             (m, k, V) marks the real ones.
-        scale: (m, k) s_a, the reference length of each corner's summed cross products.
+        scale: (m, k) s_a, the reference length of each corner's summed normal.
+        mirror: (m, k, 3, 3) the projector applied to each corner's summed normal: the
+            identity, or I - e e^T for a node on a symmetry plane of normal e (the facets
+            mirrored across it add the opposite e-component).
     """
 
     nodes: np.ndarray
@@ -119,16 +122,19 @@ class Patches:
     prev: np.ndarray
     mask: np.ndarray
     scale: np.ndarray
+    mirror: np.ndarray
 
     def rows(self, segment):
         """The patch data of the given segments (one per contact point)."""
         return Patches(self.nodes[segment], self.next[segment], self.prev[segment], self.mask[segment],
-                       self.scale[segment])
+                       self.scale[segment], self.mirror[segment])
 
 
-def patches(segments, X):
+def patches(segments, X, symmetry=()):
     """The ``Patches`` of the surface ``segments`` (m, k) with reference node coordinates X;
-    a node's incidences are the facets that hold it (surface-sized, once at setup)."""
+    a node's incidences are the facets that hold it (surface-sized, once at setup).
+    ``symmetry``: the coordinate axes ("x", "y", "z") whose planes through the origin are
+    symmetry planes of the model."""
     m, k = segments.shape
     node_of = segments.ravel()
     order = np.argsort(node_of, kind="stable")
@@ -151,9 +157,17 @@ def patches(segments, X):
     def position(values):  # the first match: padded entries repeat the first corner
         return np.argmax(nodes[:, None, None, :] == values[:, :, :, None], axis=-1)
 
+    mirror = np.tile(np.eye(3), (len(X), 1, 1))
+    tolerance = 1e-9 * np.abs(X).max(initial=1.0)
+    for axis in symmetry:
+        k_axis = "xyz".index(axis)
+        on_plane = np.abs(X[:, k_axis]) <= tolerance
+        mirror[on_plane, k_axis, k_axis] = 0.0
     summed = np.zeros((len(X), 3))
     np.add.at(summed, segments.ravel(), corner_products(X[segments]).reshape(-1, 3))
-    return Patches(nodes, position(nxt), position(prv), mask, np.linalg.norm(summed[segments], axis=2))
+    summed = np.einsum("nij,nj->ni", mirror, summed)
+    return Patches(nodes, position(nxt), position(prv), mask, np.linalg.norm(summed[segments], axis=2),
+                   mirror[segments])
 
 
 def _skew(v):
@@ -200,11 +214,11 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolera
     corner = np.broadcast_to(np.arange(k)[None, :, None], patch.mask.shape)
     e_next = np.where(patch.mask[..., None], x_p[rows, patch.next] - x_p[rows, corner], 0.0)
     e_prev = np.where(patch.mask[..., None], x_p[rows, patch.prev] - x_p[rows, corner], 0.0)
-    nu = np.cross(e_next, e_prev).sum(axis=2) / patch.scale[:, :, None]  # (n, k, 3)
+    nu = np.einsum("naij,naj->nai", patch.mirror, np.cross(e_next, e_prev).sum(axis=2)) / patch.scale[:, :, None]
     x_seg = x_p[:, :k]
     size = np.sqrt(np.linalg.norm(np.cross(x_seg[:, 2] - x_seg[:, 0], x_seg[:, -1] - x_seg[:, 1]), axis=1))
 
-    def frame(xi, g):
+    def frame(xi, g, nu, x_seg):
         N, dN = kind.shape(xi)
         m, m_b = np.einsum("na,nai->ni", N, nu), np.einsum("nab,nai->nbi", dN, nu)
         T = np.einsum("nab,nai->nbi", dN, x_seg) + g[:, None, None] * m_b
@@ -215,14 +229,20 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolera
     m = np.einsum("na,nai->ni", N, nu)
     g = np.einsum("ni,ni->n", x_s - np.einsum("na,nai->ni", N, x_seg), m) / np.einsum("ni,ni->n", m, m)
     converged = np.zeros(n, dtype=bool)
-    for _ in range(iterations):  # Newton on (xi, g); a foot far outside is stopped by the bounds
-        N, dN, m, m_b, J = frame(xi, g)
-        step = np.linalg.solve(J, (x_s - np.einsum("na,nai->ni", N, x_seg) - g[:, None] * m)[:, :, None])[:, :, 0]
-        xi, g = np.clip(xi + step[:, :2], *kind.bounds), g + step[:, 2]
-        converged |= (np.abs(step[:, :2]).max(axis=1) < tolerance) & (np.abs(step[:, 2]) < tolerance * size)
-        if converged.all():
+    moving = np.arange(n)
+    for _ in range(iterations):  # Newton on (xi, g), on the points still moving
+        N, _, m, _, J = frame(xi[moving], g[moving], nu[moving], x_seg[moving])
+        residual = x_s[moving] - np.einsum("na,nai->ni", N, x_seg[moving]) - g[moving, None] * m
+        step = np.linalg.solve(J, residual[:, :, None])[:, :, 0]
+        trial = xi[moving] + step[:, :2]
+        xi[moving], g[moving] = np.clip(trial, *kind.bounds), g[moving] + step[:, 2]
+        small = (np.abs(step[:, :2]).max(axis=1) < tolerance) & (np.abs(step[:, 2]) < tolerance * size[moving])
+        converged[moving[small]] = True
+        clipped = np.any(trial != xi[moving], axis=1)  # far outside the segment: no contact with it
+        moving = moving[~(small | clipped)]
+        if not len(moving):
             break
-    N, dN, m, m_b, J = frame(xi, g)
+    N, dN, m, m_b, J = frame(xi, g, nu, x_seg)
     length = np.linalg.norm(m, axis=1)
     normal = m / length[:, None]
     result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, normal, N)
@@ -238,7 +258,7 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolera
     point = np.broadcast_to(rows, patch.mask.shape)
     for target, block in ((patch.next, -skew_prev), (patch.prev, skew_next), (corner, skew_prev - skew_next)):
         np.add.at(view, (point, corner, target), weight * block)
-    dnu = dnu.reshape(n, k, 3, 3 * P)
+    dnu = np.einsum("naij,najq->naiq", patch.mirror, dnu.reshape(n, k, 3, 3 * P))
 
     eye3, nq = np.eye(3), 3 * (k_s + P)
     Rq = np.zeros((n, 3, nq))

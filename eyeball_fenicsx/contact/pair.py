@@ -50,15 +50,19 @@ class ContactPair(ContactFeature):
         step: index of the load step from which the contact acts.
         smoothing: length (mm) over which the penalty law is smoothed (``law.py``); 0 (the
             default): sharp. An expert's knob.
+        symmetry: the axes ("x", "y", "z") whose coordinate planes are symmetry planes of a
+            partial model: the master's nodes on them take normals in the plane.
     """
 
     symmetric_tangent = False  # the pressure acts along the smoothed normal, not a gap's gradient
 
-    def __init__(self, name, slave, master, penalty=None, step=0, smoothing=0.0):
+    def __init__(self, name, slave, master, penalty=None, step=0, smoothing=0.0, symmetry=()):
         if slave == master:
             raise SceneError(f"contact {name!r}: slave and master are both {slave!r}; name two surfaces")
+        if not set(symmetry) <= {"x", "y", "z"}:
+            raise SceneError(f"contact {name!r}: symmetry must list axes among 'x', 'y', 'z', got {symmetry!r}")
         super().__init__(name, slave, penalty, step, smoothing)
-        self.master_name = master
+        self.master_name, self.symmetry = master, tuple(symmetry)
 
     def setup(self, solid):
         comm = solid.comm
@@ -82,7 +86,7 @@ class ContactPair(ContactFeature):
             default_penalty(slave.stiffness, master.mean_stiffness)
         self.alpha = node_penalty[self.point_facet]
         self.facet_dofs = tables.dofs[slave.facets]  # (m, k, 3) local, ghosts included
-        self.facet_global = tables.global_index[self.facet_dofs].reshape(len(slave.facets), -1)
+        self.facet_global = tables.global_index[self.facet_dofs].reshape(len(slave.facets), 3 * slave.kind.corners)
         self.facet_node_global = self.facet_global[:, ::3].astype(np.int64)
         self.slave_dofs = tables.dofs[slave.nodes]
         self.point_nodes = slave.facets[self.point_facet]
@@ -99,7 +103,7 @@ class ContactPair(ContactFeature):
         self.segments = _lookup(node_global, np.concatenate([g[3] for g in gathered]).reshape(-1, self.kind.corners))
         self.segment_thickness = np.concatenate([g[4] for g in gathered])
         self.master_node_global = node_global
-        self.patch = patches(self.segments, self.master_X)
+        self.patch = patches(self.segments, self.master_X, self.symmetry)
         x = self.master_X[self.segments]
         self.segment_size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))
         self.centroid = x.mean(axis=1)

@@ -5,7 +5,7 @@ stiffness E/h of the two surface layers of elements in series (``surface.py``). 
 augmented Lagrangian (``base.py``) removes its penetration, so the factor only sets how
 many augmentations a step needs against how hard the Newton problem is.
 """
-PENALTY_FACTOR = 10.0
+PENALTY_FACTOR = 30.0
 SEARCH_FACTOR = 1.0  # candidate segments lie within this many segment sizes of a point (plus the last motion)
 ACTIVE_RANGE = 20.0  # a smoothed law acts up to gaps of this many smoothing lengths (force e^-20)
 OPEN_RANGE = 3.0  # ... and its stiffness is below 5 % of the penalty beyond this many: "open"

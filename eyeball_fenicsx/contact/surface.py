@@ -90,7 +90,7 @@ def surface(solid, tables, name):
     local_facet = np.argmax(c2f.array.reshape(-1, per_cell)[cells] == facets[:, None], axis=1)
     layout = W.sub(0).sub(0).dofmap.dof_layout
     closure = np.array([layout.entity_closure_dofs(2, i) for i in range(per_cell)])
-    segments = tables.cell_nodes[cells[:, None], closure[local_facet]].reshape(len(facets), -1)
+    segments = tables.cell_nodes[cells[:, None], closure[local_facet]].reshape(len(facets), closure.shape[1])
     kind = Quad if segments.shape[1] == 4 else Triangle
     if kind is Quad:
         segments = segments[:, [0, 1, 3, 2]]  # DOLFINx orders a quad's vertices tensor-product
