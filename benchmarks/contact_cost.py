@@ -72,7 +72,7 @@ def run(n):
         "n": n,
         "cells": summary["cells"],
         "dofs": summary["dofs"],
-        "slave_nodes": comm.allreduce(len(pair.slave.nodes), op=MPI.SUM),
+        "slave_points": comm.allreduce(len(pair.weight), op=MPI.SUM),
         "master_segments": len(pair.segments),
         "active_nodes": contact["active_nodes"],
         "increments": len(increments),
@@ -101,7 +101,7 @@ def main():
               f"{'search s':>8} {'assembly s':>10} {'(gather s)':>10} {'contact %':>9} {'re-alloc %':>10}")
         for r in rows:
             share = 100 * (r["search_s"] + r["assembly_s"]) / r["newton_s"]
-            print(f"{r['cells']:>6} {r['dofs']:>7} {r['slave_nodes']:>6} {r['master_segments']:>8} {r['increments']:>5} "
+            print(f"{r['cells']:>6} {r['dofs']:>7} {r['slave_points']:>6} {r['master_segments']:>8} {r['increments']:>5} "
                   f"{r['newton_iterations']:>6} {r['newton_s']:>8.3f} {r['search_s']:>8.4f} {r['assembly_s']:>10.4f} "
                   f"{r['gather_s']:>10.4f} {share:>9.1f} {100 * r['repreallocation_s'] / r['newton_s']:>10.1f}")
 

@@ -426,7 +426,7 @@ def main():
     idle = {name: {k: 1e3 * v for k, v in idle_parts(cases[name], 5 * args.calls).items()}
             for name in ("idle plane, outer", "idle plane, cap", "idle suture")}
     for name in ("idle plane, outer", "idle plane, cap"):
-        idle[name]["slave nodes"] = comm.allreduce(len(cases[name].extra[0].slave.nodes), op=MPI.SUM)
+        idle[name]["slave points"] = comm.allreduce(len(cases[name].extra[0].weight), op=MPI.SUM)
     busy.append(busy_cores(0.3))
 
     rows = []
@@ -507,7 +507,7 @@ def print_tables(result):
     print(f"  {'':<40}" + "".join(f"{name:>19}" for name in names))
     for part in idle[names[0]]:
         values = [idle[name].get(part) for name in names]
-        print(f"  {part:<40}" + "".join(f"{'':>19}" if v is None else f"{v:>19}" if part == "slave nodes"
+        print(f"  {part:<40}" + "".join(f"{'':>19}" if v is None else f"{v:>19}" if part == "slave points"
                                           else f"{v:>19.3f}" for v in values))
     print(f"\nsetup {result['setup_s']:.1f} s, total {result['wall_s']:.1f} s")
 

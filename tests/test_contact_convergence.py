@@ -293,9 +293,11 @@ def test_ring_hoop_stretch_is_uniform_around_the_faceted_cylinder(ring):
 
 def test_ring_hoop_tension_is_the_uniaxial_law_at_the_measured_stretch(ring):
     """The hoop force the symmetry plane x = 0 carries (its reaction) against T (``hoop_tension``):
-    0.3 %, for the terms of second order in t / R and 1 - cos(pi / n) (the prototype: -0.02 %;
-    -0.19 % with t / R = 0.05)."""
-    assert -ring["final"]["reactions"]["ring_cut_1"][0] == pytest.approx(hoop_tension(ring), rel=3e-3)
+    1 %, for the terms of second order in t / R and of order 1 - cos(pi / n) = 0.86 % (n = 24):
+    the pressure acts along the interpolated nodal normal, which at the Gauss points is tilted
+    by up to 0.58 pi / n from the facets' own (measured: -0.6 %; a prototype with the facets'
+    normals: -0.02 %)."""
+    assert -ring["final"]["reactions"]["ring_cut_1"][0] == pytest.approx(hoop_tension(ring), rel=1e-2)
 
 
 def test_ring_contact_pressure_follows_laplace_law(ring):
