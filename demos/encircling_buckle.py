@@ -7,7 +7,8 @@
 #
 # 1. "pressurize": each cavity filled to 15 mmHg; the sclera, inflating, meets the band;
 # 2. "tighten": the band's rest length shortened by the surgeon's circumference reduction;
-#    it squeezes the sclera through contact (node-to-segment penalty, both bodies deformable),
+#    it squeezes the sclera through contact (augmented penalty, slave Gauss points on the
+#    master's smoothed surface, both bodies deformable),
 #    the eye keeps its liquid volume, so it lengthens and its pressure rises;
 # 3. "suture": the sutures, tied around the band, shortened by 0.1 mm.
 #

@@ -15,8 +15,10 @@
 # $\frac{1}{2} \alpha_h g^2$, with $\alpha_h$ = (penalty per unit area) $\times$ (the node's
 # tributary area); the residual is $\alpha_h g \nabla g$ and the tangent
 # $\alpha_h (\nabla g \nabla g^T + g \nabla\nabla g)$, whose second term is the turning of
-# the sphere's normal. The default penalty is 30 times the stiffness $E/h$ of the surface
-# layer of elements (`eyeball_fenicsx/contact.py`), nothing to tune.
+# the sphere's normal. An augmented Lagrangian (Uzawa's update of a multiplier per node)
+# then removes the penetration, so the answer does not depend on the penalty. The default
+# penalty is 30 times the stiffness $E/h$ of the surface
+# layer of elements (`eyeball_fenicsx/contact/policy.py`), nothing to tune.
 #
 # We model a quarter of the block (symmetry planes $x = 0$, $y = 0$; the sphere's centre
 # on their intersection), $30 a$ wide and deep on a roller base, with hexahedra graded from
@@ -97,7 +99,7 @@ summary = scene.run(os.environ.get("DEMO_OUT"))
 
 # ## Against Hertz
 # The finite block (its far boundary $30 a$ away) is slightly stiffer than a half-space,
-# by about $a / L$; the penalty penetration makes it softer by a fraction of a percent.
+# by about $a / L$.
 
 # +
 depth, force, penetration = np.array(curve).T
@@ -118,7 +120,7 @@ if MPI.COMM_WORLD.rank == 0:
     fine = np.linspace(0.0, d, 100)
     fig, ax = plt.subplots(figsize=(5, 3.5))
     ax.plot(fine, 16 / 3 * mu * np.sqrt(R) * fine**1.5, "k-", label="Hertz, $16/3\\,\\mu R^{1/2} d^{3/2}$")
-    ax.plot(depth, force, "o", label="eyeball-fenicsx (Q1/P0, penalty contact)")
+    ax.plot(depth, force, "o", label="eyeball-fenicsx (Q1/P0, augmented penalty contact)")
     ax.set_xlabel("indentation depth d (mm)")
     ax.set_ylabel("force F (N)")
     ax.legend()

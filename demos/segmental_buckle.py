@@ -7,7 +7,7 @@
 #
 # 1. "pressurize": each cavity filled to 15 mmHg; the sclera, inflating, meets the tire;
 # 2. "suture": the sutures, tied over the tire, shortened by 0.4 mm, press it into the sclera
-#    (node-to-segment penalty contact, both bodies deformable).
+#    (augmented penalty contact, both bodies deformable).
 #
 # The tire is a free body but for contact and sutures (and the symmetry plane, which carries
 # only y forces), so along x and z the sclera's push on it and the sutures' pull must cancel,

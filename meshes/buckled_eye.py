@@ -3,7 +3,7 @@
 One gmsh model holds the eye (its tissues, surfaces and optional retinal detachment, unchanged) and
 the buckle's bodies, all 8-node hexahedra. The buckle does not share a single node with the eye:
 each body is its own mesh, a small clearance ``gap`` away from the body under it, so that contact
-(eyeball_fenicsx/contact.py) closes the gap and carries the load.
+(eyeball_fenicsx/contact/) closes the gap and carries the load.
 
 **Geometry.** As in meshes/eye.py the optic axis is z, the corneal apex at +z, the origin the
 centre of the sclera, whose outer surface is the sphere of radius R_o from the optic nerve to the
