@@ -131,6 +131,7 @@ class NewtonSolver:
         self.divergence = PETSc.Options(prefix).getReal("snes_divergence_tolerance", 1e4)
         self.reuse_contraction = SolverSettings.reuse_contraction
         self.reused = False  # the last Newton step reused a factorization
+        self.chord_start = False  # the next solve starts with the last factorization
         self.snes = snes = PETSc.SNES().create(problem.comm)
         snes.setOptionsPrefix(prefix)
         snes.setFunction(problem.F, problem.b)
@@ -184,8 +185,10 @@ class NewtonSolver:
         norms = self.residual_norms
         # a tangent whose active set (contact) changed is never reused; the list keeps the
         # features' collective calls aligned across ranks
-        self.reused = (snes.getIterationNumber() > 0 and norms[-1] <= self.reuse_contraction * norms[-2]
-                       and not any([f.tangent_outdated() for f in self.problem.features]))
+        first = snes.getIterationNumber() == 0
+        self.reused = (first and self.chord_start) or (
+            not first and norms[-1] <= self.reuse_contraction * norms[-2]
+            and not any([f.tangent_outdated() for f in self.problem.features]))
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
@@ -303,8 +306,11 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x):
-        """Newton from x (updated in place); returns (converged, iterations, residual, reason)."""
+    def solve(self, x, chord_start=False):
+        """Newton from x (updated in place); returns (converged, iterations, residual, reason).
+        ``chord_start``: the first step reuses the last factorization (Newton again from a
+        converged state whose loads changed a little: an augmentation)."""
+        self.chord_start = chord_start
         self.residual_norms = []
         self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
         self.tangents = 0
@@ -371,7 +377,7 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         problem.set_increment(t + dt >= 1.0 - 1e-12)
         converged, its, norm, reason = newton.solve(x)
         while converged and not problem.augment():  # augmented Lagrangian: Newton again
-            converged, more, norm, reason = newton.solve(x)
+            converged, more, norm, reason = newton.solve(x, chord_start=True)
             its += more
         wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
         if converged:
