@@ -245,8 +245,8 @@ def ring():
     scene.build()
     solves, solve = [], scene.newton.solve
 
-    def recorded(x):
-        result = solve(x)
+    def recorded(x, **options):
+        result = solve(x, **options)
         solves.append(list(scene.newton.residual_norms))
         return result
     scene.newton.solve = recorded
