@@ -8,7 +8,6 @@ variant that does not converge is a row with ``ok = false``. DIR/sweep.csv holds
 "eye" predictions of every variant and DIR/sweep.png plots them against the parameter.
 """
 import copy
-import csv
 import os
 import tomllib
 
