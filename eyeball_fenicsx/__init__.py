@@ -4,7 +4,7 @@ from .errors import ConvergenceError, SceneError
 from .loads import Dirichlet, NodalForce, Pressure
 from .materials import LinearElastic, MooneyRivlin, NeoHooke
 from .scene import Scene, Step
-from .solver import SolverSettings
+from .stepping import SolverSettings
 
 __all__ = ["ContactPair", "RigidContact", "ConvergenceError", "SceneError", "Dirichlet", "NodalForce", "Pressure", "LinearElastic",
            "MooneyRivlin", "NeoHooke", "Scene", "Step", "SolverSettings"]

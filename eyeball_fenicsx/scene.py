@@ -30,7 +30,8 @@ from .loads import Dirichlet
 from .measures import EyeMeasures
 from .output import FieldOutput, Probes, write_json_atomic
 from .problem import Problem
-from .solver import NewtonSolver, SolverSettings, run_step
+from .solver import NewtonSolver
+from .stepping import SolverSettings, run_step
 
 
 @dataclasses.dataclass

@@ -48,7 +48,7 @@ from .materials import LinearElastic, MooneyRivlin, NeoHooke
 from .measures import EyeMeasures
 from .mesh import built_mesh, load_mesh
 from .scene import Scene, Step
-from .solver import SolverSettings
+from .stepping import SolverSettings
 from .sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",

@@ -1,4 +1,4 @@
-"""Newton (PETSc SNES, direct MUMPS solve) and the incremental load path with cut-back.
+"""Newton (PETSc SNES, direct MUMPS solve) for one load increment (``stepping.py`` walks the load path).
 
 PETSc options live under the prefix ``eye_``: pass ``-eye_snes_monitor``,
 ``-eye_snes_linesearch_type basic``, ``-eye_mat_mumps_icntl_4 2`` ... on the command line.
@@ -13,7 +13,7 @@ the converged answer (the residual tolerances decide it, as before):
   matrix is symmetric to round-off, checked at the first Jacobian of every increment (a
   follower pressure on a surface with free edges is not);
 * factorization reuse (chord steps): after a Newton step that cut the residual by at least
-  ``SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
+  ``stepping.SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
   assembling and factorizing a new tangent; a reused step that contracts less ends the reuse.
   A chord step converges linearly, so it would stop just below the tolerance, where Newton's
   quadratic last step lands far below it: after a reused factorization, convergence needs a
@@ -40,21 +40,15 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
   ``Feature.step_fraction``); one that still inverts ends the solve ("inverting step") with
   the element's location. A secant predictor that would invert an element is halved alike,
-  or dropped;
-* increment size: after a converged increment that factorized n tangents, the next one is
-  scaled by ``easy_iterations / n``, clipped to [1 / ``growth``, ``growth``], never below the
-  smallest cut-back: a rule aimed at ``easy_iterations`` tangents per increment, as FEBio's
-  auto time stepper aims at ``opt_iter`` iterations (``FECore/FETimeStepController.cpp``,
-  which scales by the square root of that ratio and relaxes toward its largest step).
+  or dropped.
 """
 import contextlib
-import dataclasses
 import time
 
 import numpy as np
 from petsc4py import PETSc
 
-from .errors import ConvergenceError, SceneError
+from .stepping import SolverSettings
 
 PREFIX = "eye_"
 DEFAULT_OPTIONS = {
@@ -77,38 +71,6 @@ _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row 
 _SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
 _REASON = PETSc.SNES.ConvergedReason
 _REASONS = {value: name for name, value in vars(PETSc.SNES.ConvergedReason).items() if not name.startswith("_")}
-
-
-@dataclasses.dataclass
-class SolverSettings:
-    """Load stepping of each step of the load path.
-
-    Args:
-        increments: initial number of equal load increments of a step.
-        max_cutbacks: the smallest increment is the initial one halved this many times;
-            an increment that fails at that size ends the run.
-        growth: the largest factor by which an increment grows after a converged one; it
-            shrinks by at most its inverse (1: equal increments, cut back only where one fails).
-        easy_iterations: the target of the step-size rule: the next increment is this increment
-            times easy_iterations / (tangents it factorized), within [1 / growth, growth] (with
-            factorization reuse, the cheap chord steps do not count).
-        predictor: extrapolate the previous increment to start Newton (secant predictor).
-        reuse_contraction: reuse the factorization for the next Newton step after a step that
-            multiplied the residual norm by at most this factor (0: a new tangent every step).
-    """
-
-    increments: int = 10
-    max_cutbacks: int = 10
-    growth: float = 2.0
-    easy_iterations: int = 5
-    predictor: bool = True
-    reuse_contraction: float = 0.1
-
-    def __post_init__(self):
-        if isinstance(self.increments, bool) or not isinstance(self.increments, int) or self.increments < 1:
-            raise SceneError(f"solver.increments must be a positive integer, got {self.increments!r}")
-        if not self.growth >= 1:
-            raise SceneError(f"solver.growth must be at least 1 (1: equal increments), got {self.growth!r}")
 
 
 class NewtonSolver:
@@ -323,89 +285,3 @@ class NewtonSolver:
         norm = self.residual_norms[-1] if self.residual_norms else float("nan")
         converged = reason > 0 and np.isfinite(norm)
         return converged, self.snes.getIterationNumber(), norm, self.stopped or _REASONS.get(reason, str(reason))
-
-
-def ramp(feature_step, step_index, t):
-    """Load factor of a feature that ramps in ``feature_step`` at time t of ``step_index``."""
-    if step_index < feature_step:
-        return 0.0
-    return t if step_index == feature_step else 1.0
-
-
-def next_increment_factor(tangents, settings):
-    """The step-size rule: easy_iterations / tangents, within [1 / growth, growth]."""
-    return float(np.clip(settings.easy_iterations / max(tangents, 1), 1 / settings.growth, settings.growth))
-
-
-@dataclasses.dataclass
-class Increment:
-    load_factor: float
-    newton_iterations: int
-    residual_norm: float
-    wall_s: float
-    factorizations: int  # new tangents factorized; the other iterations reused one
-
-
-def run_step(problem, newton, settings, step_index, step_name, increments, log):
-    """Advance one step of the load path from t = 0 to 1 with adaptive increments.
-
-    Returns the list of converged ``Increment``; raises ``ConvergenceError`` (with the
-    converged ones attached as ``.increments``) when the cut-backs are exhausted.
-    """
-    problem.begin_step(step_index)
-    x = problem.x
-    problem.state_to_vector(x)
-    x_old, x_prev = x.duplicate(), None
-    t, dt, dt_prev = 0.0, 1.0 / increments, None
-    smallest, done = 1.0 / increments / 2**settings.max_cutbacks, []
-    use_predictor = settings.predictor
-    newton.reuse_contraction = settings.reuse_contraction
-    while t < 1.0 - 1e-12:
-        dt = min(dt, 1.0 - t)
-        x.copy(x_old)
-        problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
-        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact nor an inversion
-            step = x_prev - x_old  # the secant, as the step x_old -> x_old - step
-            step.scale(dt / dt_prev)
-            if newton.limits_steps:
-                problem.F(None, x_old, problem.b)
-                step.scale(problem.step_fraction(-step.array_r, problem.b.array_r))
-            if newton.shorten_while_inverting(x_old, step) is not None:
-                x.axpy(-1.0, step)
-        start, factorized = time.perf_counter(), newton.factorizations
-        newton.update_pattern()
-        problem.set_increment(t + dt >= 1.0 - 1e-12)
-        converged, its, norm, reason = newton.solve(x)
-        while converged and not problem.augment():  # augmented Lagrangian: Newton again
-            converged, more, norm, reason = newton.solve(x, chord_start=True)
-            its += more
-        wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
-        if converged:
-            t += dt
-            done.append(Increment(t, its, norm, wall, factorized))
-            log(f"step {step_name}: load factor {t:.4f}  Newton iterations {its:2d} ({factorized} factorized)  "
-                f"residual {norm:.2e}  {wall:.2f} s")
-            if x_prev is None:
-                x_prev = x.duplicate()
-            x_old.copy(x_prev)
-            dt_prev = dt
-            use_predictor = settings.predictor
-            dt = max(dt * next_increment_factor(factorized, settings), smallest)
-            continue
-        x_old.copy(x)
-        problem.vector_to_state(x)
-        where = ""
-        if problem.inverted is not None:
-            where = f"; an element inverted (det F = {problem.inverted[0]:.3g}) near {np.round(problem.inverted[1], 4).tolist()}"
-        log(f"step {step_name}: load factor {t + dt:.4f} failed ({reason}{where}); cutting the increment back")
-        if dt <= smallest * (1 + 1e-9):
-            error = ConvergenceError(
-                f"step {step_name!r} did not converge beyond load factor {t:.4g}, even with the increment "
-                f"cut back {settings.max_cutbacks} times (last try: {reason}{where}); use more increments, check the loads and supports, or "
-                f"pass -{PREFIX}snes_monitor to see the Newton iterations")
-            error.increments = done
-            raise error
-        dt /= 2
-        use_predictor = False
-    problem.set_load_factor([ramp(f.step, step_index, 1.0) for f in problem.features])
-    return done
