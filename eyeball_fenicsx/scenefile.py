@@ -34,7 +34,6 @@ Extensions beyond the contract (documented in README.md):
   sclera bite ``width / 2`` from the buckle's centre line to the buckle's top edge; they are
   tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``).
 """
-import math
 import os
 import tomllib
 
@@ -44,184 +43,14 @@ from .buckle import BandTightening
 from .cavity import Injection, LiquidCavity
 from .errors import SceneError
 from .loads import Dirichlet, NodalForce, Pressure
-from .materials import LinearElastic, MooneyRivlin, NeoHooke
 from .measures import EyeMeasures
-from .mesh import built_mesh, load_mesh
 from .scene import Scene, Step
+from .scenetables import Table, contact_table, material_table, mesh_table, table_array
 from .stepping import SolverSettings
 from .sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
              "solver", "step", "injection", "suture", "band", "eye", "buckle_sutures"}
-
-
-class _Table:
-    """A TOML table being read: typed getters that raise located SceneErrors."""
-
-    def __init__(self, data, where, allowed):
-        if not isinstance(data, dict):
-            raise SceneError(f"{where}: expected a table, got {type(data).__name__}")
-        unknown = sorted(set(data) - set(allowed))
-        if unknown:
-            raise SceneError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(allowed)}")
-        self.data, self.where = data, where
-
-    def error(self, message):
-        return SceneError(f"{self.where}: {message}")
-
-    def has(self, key):
-        return key in self.data
-
-    def unique_name(self, kind, taken):
-        """The table's required ``name``, which must not be in ``taken`` (it keys the summary)."""
-        name = self.get("name", "string", required=True)
-        if name in taken:
-            raise self.error(f"{kind} name {name!r} is used twice")
-        return name
-
-    def get(self, key, kind, default=None, required=False):
-        if key not in self.data:
-            if required:
-                raise self.error(f"missing required key {key!r}")
-            return default
-        value = self.data[key]
-        if kind == "string":
-            if not isinstance(value, str) or not value:
-                raise self.error(f"{key} must be a non-empty string, got {value!r}")
-        elif kind in ("number", "positive", "nonnegative"):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise self.error(f"{key} must be a finite number, got {value!r}")
-            if kind == "positive" and value <= 0:
-                raise self.error(f"{key} must be positive, got {value!r}")
-            if kind == "nonnegative" and value < 0:
-                raise self.error(f"{key} must not be negative, got {value!r}")
-            value = float(value)
-        elif kind == "integer":
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise self.error(f"{key} must be a positive integer, got {value!r}")
-        elif kind == "vector":
-            if (not isinstance(value, list) or len(value) != 3
-                    or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                           for v in value)):
-                raise self.error(f"{key} must be a list of 3 finite numbers, got {value!r}")
-            value = [float(v) for v in value]
-        elif kind == "bool":
-            if not isinstance(value, bool):
-                raise self.error(f"{key} must be true or false, got {value!r}")
-        elif kind == "numbers":
-            if (not isinstance(value, list) or not value
-                    or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value)):
-                raise self.error(f"{key} must be a list of finite numbers, got {value!r}")
-            value = [float(v) for v in value]
-        elif kind == "strings":
-            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-                raise self.error(f"{key} must be a list of strings, got {value!r}")
-        return value
-
-
-def _array(data, key, path):
-    tables = data.get(key, [])
-    if not isinstance(tables, list):
-        raise SceneError(f"{path}: {key} must be an array of tables, written [[{key}]]")
-    return [(t, f"{path}: [[{key}]] #{i + 1}") for i, t in enumerate(tables)]
-
-
-def _material(table: _Table):
-    """A [materials.<region>] table -> its material law."""
-    model = table.get("model", "string", required=True)
-    if model == "neo-hooke":
-        _Table(table.data, table.where, {"model", "c10"})
-        law, arguments = NeoHooke, [table.get("c10", "positive", required=True)]
-    elif model == "mooney-rivlin":
-        _Table(table.data, table.where, {"model", "c"})
-        c = table.get("c", None, required=True)
-        if not isinstance(c, dict) or not c:
-            raise table.error('c must be a table of coefficients, e.g. c = { "10" = 0.4, "01" = 0.1 }')
-        coefficients = {}
-        for key, value in c.items():
-            if len(key) != 2 or not key.isdigit():
-                raise table.error(f'coefficient names are two digits "rs" for (I1bar-3)^r (I2bar-3)^s, got {key!r}')
-            coefficients[(int(key[0]), int(key[1]))] = value
-        law, arguments = MooneyRivlin, [coefficients]
-    elif model == "linear-elastic":
-        _Table(table.data, table.where, {"model", "E", "nu"})
-        law, arguments = LinearElastic, [table.get("E", "positive", required=True),
-                                         table.get("nu", "number", required=True)]
-    else:
-        raise table.error(f"unknown model {model!r}: choose neo-hooke, mooney-rivlin or linear-elastic")
-    try:
-        return law(*arguments)
-    except SceneError as error:  # the law's own checks: nu < 0.5, c10 + c01 > 0, ...
-        raise table.error(str(error)) from None
-
-
-RIGID_SHAPES = {"plane": {"point", "normal"}, "sphere": {"center", "radius"},
-                "cylinder": {"point", "axis", "radius"}}
-
-
-def _contact(t: _Table, step_of):
-    """A [[contact]] table -> (feature, surfaces it names)."""
-    from .contact import ContactPair, RigidContact
-    name = t.get("name", "string", required=True)
-    slave = t.get("slave", "string", required=True)
-    penalty = t.get("penalty", "positive")
-    smoothing = t.get("smoothing", "nonnegative", 0.0)
-    if t.has("master") == t.has("rigid"):
-        raise t.error("give exactly one of master (a surface) or rigid (a rigid body)")
-    if t.has("master"):
-        master = t.get("master", "string")
-        step = step_of(t)
-        try:
-            return ContactPair(name, slave, master, penalty=penalty, step=step, smoothing=smoothing,
-                               symmetry=t.get("symmetry", "strings", [])), [slave, master]
-        except SceneError as error:  # the pair's own checks: slave and master differ
-            raise t.error(str(error)) from None
-    if t.has("symmetry"):
-        raise t.error("symmetry applies to a master surface (its nodes on the planes); a rigid body has none")
-    rigid = t.data["rigid"]
-    if not isinstance(rigid, dict):
-        raise t.error(f'rigid must be a table, e.g. rigid = {{ shape = "plane", point = [0.0, 0.0, 1.0], '
-                      f'normal = [0.0, 0.0, -1.0] }}, got {rigid!r}')
-    shape = rigid.get("shape")
-    if shape not in RIGID_SHAPES:
-        raise t.error(f"rigid.shape must be one of {sorted(RIGID_SHAPES)}, got {shape!r}")
-    r = _Table(rigid, f"{t.where} rigid", RIGID_SHAPES[shape] | {"shape", "displacement", "inside"})
-    params = {}
-    for key in RIGID_SHAPES[shape] | {"displacement"}:
-        params[key] = r.get(key, "positive" if key == "radius" else "vector", required=key != "displacement")
-    if shape in ("sphere", "cylinder"):
-        params["inside"] = r.get("inside", "bool", False)
-    elif r.has("inside"):
-        raise r.error("inside applies to sphere and cylinder only")
-    step = step_of(t)
-    try:
-        return RigidContact(name, slave, shape, penalty=penalty, step=step, smoothing=smoothing, **params), [slave]
-    except SceneError as error:  # the shape's own checks: a non-zero normal or axis
-        raise r.error(str(error)) from None
-
-
-def _mesh(table: _Table, directory, comm):
-    if table.has("file"):
-        _Table(table.data, table.where, {"file"})
-        given = table.get("file", "string")
-        path = os.path.join(directory, given)
-        if not os.path.isfile(path):
-            raise table.error(f"file = {given!r}: {path} does not exist (the path is relative to the scene file)")
-        try:
-            return load_mesh(path, comm)
-        except SceneError as error:  # the mesh's own checks: gmsh reads it, named groups, supported elements
-            raise table.error(str(error)) from None
-    builder = table.get("builder", "string", required=False)
-    from meshes import band, block, buckled_eye, eye, sphere_octant
-    builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant,
-                "eye": eye.build_eye, "band": band.build_band, "buckled_eye": buckled_eye.build_buckled_eye}
-    if builder not in builders:
-        raise table.error(f"give file = \"<mesh>.msh\" or builder = one of {sorted(builders)}")
-    options = {k: v for k, v in table.data.items() if k != "builder"}
-    try:
-        return built_mesh(builders[builder], comm, **options)
-    except SceneError as error:
-        raise table.error(str(error)) from None
 
 
 def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
@@ -241,12 +70,12 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     from .sweep import set_parameter
     for key, value in (overrides or {}).items():
         set_parameter(data, key, value)
-    top = _Table(data, path, TOP_LEVEL)
+    top = Table(data, path, TOP_LEVEL)
     name = top.get("name", "string", default=os.path.splitext(os.path.basename(path))[0])
 
     steps = []
-    for t, where in _array(data, "step", path):
-        t = _Table(t, where, {"name", "increments"})
+    for t, where in table_array(data, "step", path):
+        t = Table(t, where, {"name", "increments"})
         steps.append(Step(t.get("name", "string", required=True), t.get("increments", "integer")))
     steps = steps or [Step("load")]
     step_index = {s.name: i for i, s in enumerate(steps)}
@@ -261,25 +90,25 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
 
     if "materials" not in data or not isinstance(data["materials"], dict) or not data["materials"]:
         raise SceneError(f"{path}: no [materials.<region>] table: give one per volume group of the mesh")
-    materials = {region: _material(_Table(t, f"{path}: [materials.{region}]", t if isinstance(t, dict) else ()))
+    materials = {region: material_table(Table(t, f"{path}: [materials.{region}]", t if isinstance(t, dict) else ()))
                  for region, t in data["materials"].items()}  # keys are checked per model
 
     features, surfaces_used = [], []
-    for t, where in _array(data, "dirichlet", path):
-        t = _Table(t, where, {"surface", "x", "y", "z", "step"})
+    for t, where in table_array(data, "dirichlet", path):
+        t = Table(t, where, {"surface", "x", "y", "z", "step"})
         surface = t.get("surface", "string", required=True)
         components = {c: t.get(c, "number") for c in "xyz" if t.has(c)}
         if not components:
             raise t.error("constrain at least one of x, y, z")
         features.append(Dirichlet(surface, components, step=step_of(t)))
         surfaces_used.append((surface, where))
-    for t, where in _array(data, "pressure", path):
-        t = _Table(t, where, {"surface", "value", "step"})
+    for t, where in table_array(data, "pressure", path):
+        t = Table(t, where, {"surface", "value", "step"})
         surface = t.get("surface", "string", required=True)
         features.append(Pressure(surface, t.get("value", "number", required=True), step=step_of(t)))
         surfaces_used.append((surface, where))
-    for t, where in _array(data, "force", path):
-        t = _Table(t, where, {"surface", "point", "value", "step"})
+    for t, where in table_array(data, "force", path):
+        t = Table(t, where, {"surface", "point", "value", "step"})
         if t.has("surface") == t.has("point"):
             raise t.error("give exactly one of surface or point")
         surface = t.get("surface", "string")
@@ -288,8 +117,8 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         if surface:
             surfaces_used.append((surface, where))
     cavities = {}
-    for t, where in _array(data, "cavity", path):
-        t = _Table(t, where, {"name", "surface", "bulk_modulus", "initial_pressure", "injected_volume",
+    for t, where in table_array(data, "cavity", path):
+        t = Table(t, where, {"name", "surface", "bulk_modulus", "initial_pressure", "injected_volume",
                               "symmetry", "step", "algorithm", "pressurize"})
         name_ = t.unique_name("cavity", cavities)
         surface = t.get("surface", "strings" if isinstance(t.data.get("surface"), list) else "string", required=True)
@@ -304,15 +133,15 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
             raise t.error(str(error)) from None
         features.append(cavities[name_])
         surfaces_used.extend((name, where) for name in cavities[name_].surfaces)
-    for t, where in _array(data, "injection", path):
-        t = _Table(t, where, {"cavity", "volume", "step"})
+    for t, where in table_array(data, "injection", path):
+        t = Table(t, where, {"cavity", "volume", "step"})
         cavity = t.get("cavity", "string", required=True)
         if cavity not in cavities:
             raise t.error(f"cavity {cavity!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
         features.append(Injection(cavities[cavity], t.get("volume", "number", required=True), step=step_of(t)))
     sutures = set()  # names, unique: each is a key of "sutures" in summary.json
-    for t, where in _array(data, "suture", path):
-        t = _Table(t, where, {"name", "first", "second", "tension", "shortening", "stiffness", "first_surface",
+    for t, where in table_array(data, "suture", path):
+        t = Table(t, where, {"name", "first", "second", "tension", "shortening", "stiffness", "first_surface",
                               "second_surface", "anchored", "step"})
         name_ = t.unique_name("suture", sutures)
         sutures.add(name_)
@@ -326,8 +155,8 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         except SceneError as error:  # the suture's own checks: tension or shortening
             raise t.error(str(error)) from None
         surfaces_used.extend((n, where) for n in ends.values() if n)
-    for t, where in _array(data, "band", path):
-        t = _Table(t, where, {"region", "reduction", "center", "axis", "step"})
+    for t, where in table_array(data, "band", path):
+        t = Table(t, where, {"region", "reduction", "center", "axis", "step"})
         region = t.get("region", "string", required=True)
         if region not in materials:
             raise t.error(f"region {region!r} has no [materials.{region}] table")
@@ -339,7 +168,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
         except SceneError as error:  # the band's own checks: a reduction >= 0, a non-zero axis
             raise t.error(str(error)) from None
     if "buckle_sutures" in data:
-        t = _Table(data["buckle_sutures"], f"{path}: [buckle_sutures]",
+        t = Table(data["buckle_sutures"], f"{path}: [buckle_sutures]",
                    {"count", "width", "azimuths", "tension", "shortening", "stiffness", "step"})
         mesh = data.get("mesh") if isinstance(data.get("mesh"), dict) else {}
         if mesh.get("builder") != "buckled_eye":
@@ -363,7 +192,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
             ends = {"first_surface": point["sclera_surface"], "second_surface": point["buckle_surface"]}
             features.append(Suture(point["name"], point["sclera"], point["buckle"], **ends, **pull))
     if "eye" in data:
-        t = _Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
+        t = Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
                                                    "posterior_surface", "buckle", "sclera", "retina", "choroid"})
         vitreous = t.get("vitreous", "string")
         if vitreous is not None and vitreous not in cavities:
@@ -383,21 +212,21 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
             raise t.error(str(error)) from None
         surfaces_used.extend((n, t.where) for n in [*ends.values(), *surfaces.values()] if n)
     contacts = set()
-    for t, where in _array(data, "contact", path):
-        t = _Table(t, where, {"name", "slave", "master", "rigid", "penalty", "smoothing", "step", "symmetry"})
+    for t, where in table_array(data, "contact", path):
+        t = Table(t, where, {"name", "slave", "master", "rigid", "penalty", "smoothing", "step", "symmetry"})
         name_ = t.unique_name("contact", contacts)
         contacts.add(name_)
-        feature, names = _contact(t, step_of)
+        feature, names = contact_table(t, step_of)
         features.append(feature)
         surfaces_used.extend((n, where) for n in names)
 
     probes = {}
-    for t, where in _array(data, "probe", path):
-        t = _Table(t, where, {"name", "point"})
+    for t, where in table_array(data, "probe", path):
+        t = Table(t, where, {"name", "point"})
         name_ = t.unique_name("probe", probes)
         probes[name_] = t.get("point", "vector", required=True)
 
-    solver_table = _Table(data.get("solver", {}), f"{path}: [solver]",
+    solver_table = Table(data.get("solver", {}), f"{path}: [solver]",
                           {"increments", "max_cutbacks", "growth", "predictor", "element"})
     settings = SolverSettings(
         increments=solver_table.get("increments", "integer", 10),
@@ -409,8 +238,8 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     mesh = data.get("mesh")
     if not isinstance(mesh, dict) or not mesh:
         raise SceneError(f"{path}: no [mesh] table: give file = \"<mesh>.msh\" (relative to the scene file)")
-    mesh_table = _Table(mesh, f"{path}: [mesh]", set(mesh))  # keys are checked per mesh source
-    mesh_data = _mesh(mesh_table, os.path.dirname(os.path.abspath(path)), comm)
+    mesh_keys = Table(mesh, f"{path}: [mesh]", set(mesh))  # keys are checked per mesh source
+    mesh_data = mesh_table(mesh_keys, os.path.dirname(os.path.abspath(path)), comm)
 
     for surface, where in surfaces_used:
         if surface not in mesh_data.surfaces:

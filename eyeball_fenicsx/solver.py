@@ -43,7 +43,6 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   or dropped.
 """
 import contextlib
-import time
 
 import numpy as np
 from petsc4py import PETSc
