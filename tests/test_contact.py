@@ -107,7 +107,7 @@ def test_projection_and_traction_tangent_are_the_derivatives(kind, smoothing):
     def residual(q):
         proj = run(q, True)
         p, k = pressure(proj.g, np.full(4, 0.01), np.full(4, alpha), smoothing)
-        return traction(W, p, k, proj, N_s)
+        return traction(W, p, k, proj, N_s, patch.nodes.shape[1])
 
     q0 = np.vstack([slave, X[patch.nodes[s]]]).ravel()
     proj = run(q0, True)

@@ -49,12 +49,13 @@ _ADD = PETSc.InsertMode.ADD_VALUES
 
 @dataclasses.dataclass
 class Selection:
-    """The points that project on something at a state, what on (a segment, or -1), and
-    their gaps."""
+    """The points that project on something at a state, what on (a segment, or -1), their
+    gaps, and (a deformable pair) their ``geometry.Projection``."""
 
     point: np.ndarray
     target: np.ndarray
     g: np.ndarray
+    projection: object = None
 
 
 class ContactFeature(Feature):

@@ -91,11 +91,6 @@ class Quad:
         return np.maximum(0.0, 0.5 * (np.max(np.abs(xi), axis=1) - 1.0))
 
 
-def segment_kind(corners):
-    """``Quad`` or ``Triangle``, by the number of corners."""
-    return Quad if corners == 4 else Triangle
-
-
 def corner_products(x_seg):
     """(x_next - x_a) x (x_prev - x_a) at each corner of segments x_seg (m, k, 3)."""
     return np.cross(np.roll(x_seg, -1, axis=1) - x_seg, np.roll(x_seg, 1, axis=1) - x_seg)
@@ -198,8 +193,12 @@ class Projection:
     dnormal: np.ndarray = None
     dN: np.ndarray = None
 
+    def take(self, index):
+        """The projections of some of the points (without derivatives)."""
+        return Projection(self.g[index], self.xi[index], self.inside[index], self.normal[index], self.N[index])
 
-def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolerance=1e-12):
+
+def project(x_s, N_s, x_p, patch, kind, derivatives=False, start=None, iterations=25, tolerance=1e-12):
     """Project slave points on master segments along the interpolated nodal normal field.
 
     Args:
@@ -208,6 +207,7 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolera
         patch: ``Patches`` with one row per point (``Patches.rows``).
         kind: ``Quad`` or ``Triangle`` (the master segment).
         derivatives: also the derivatives over the slave facet's and the patch's nodes.
+        start: the feet (n, 2) to start Newton from (default: the segments' centres).
     """
     n, P, k, k_s = len(x_s), x_p.shape[1], kind.corners, N_s.shape[1]
     rows = np.arange(n)[:, None, None]
@@ -224,7 +224,7 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolera
         T = np.einsum("nab,nai->nbi", dN, x_seg) + g[:, None, None] * m_b
         return N, dN, m, m_b, np.stack([T[:, 0], T[:, 1], m], axis=2)  # columns T_1, T_2, m
 
-    xi = np.tile(np.asarray(kind.centre, dtype=float), (n, 1))
+    xi = np.tile(np.asarray(kind.centre, dtype=float), (n, 1)) if start is None else start.copy()
     N, _ = kind.shape(xi)
     m = np.einsum("na,nai->ni", N, nu)
     g = np.einsum("ni,ni->n", x_s - np.einsum("na,nai->ni", N, x_seg), m) / np.einsum("ni,ni->n", m, m)
@@ -275,8 +275,9 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, iterations=25, tolera
     return result
 
 
-def traction(weight, pressure, stiffness, proj, N_s):
-    """Residual and tangent of a contact pressure p(g_n) acting along the normal n at the foot.
+def traction(weight, pressure, stiffness, proj, N_s, patch_size, tangent=True):
+    """Residual and (with ``tangent``) tangent of a contact pressure p(g_n) acting along the
+    normal n at the foot.
 
     The slave point takes p n, the master segment's corners -N_a p n; with the residual as
     internal minus external force,
@@ -284,21 +285,23 @@ def traction(weight, pressure, stiffness, proj, N_s):
         r = -W p Gamma,  Gamma = [N_s,i n (slave nodes), -N_a n (corners), 0 (other patch nodes)],
         K = dr/dq = W k Gamma dg_n^T - W p dGamma/dq,   k = -dp/dg_n,
 
-    for points of area weight W (n,), pressure p (n,) and stiffness k (n,).
-    Returns r (n, nq) and K (n, nq, nq) in the order of ``project``'s q.
+    for points of area weight W (n,), pressure p (n,) and stiffness k (n,), on patches of
+    ``patch_size`` nodes. Returns r (n, nq) and K (n, nq, nq) (None without ``tangent``: then
+    ``proj`` needs no derivatives), in the order of ``project``'s q.
     """
-    n, k_s = len(weight), N_s.shape[1]
-    k = proj.N.shape[1]
-    nq = proj.dg.shape[1]
+    n, k_s, k = len(weight), N_s.shape[1], proj.N.shape[1]
+    nq = 3 * (k_s + patch_size)
     n_vec = proj.normal
     gamma = np.zeros((n, nq))
     gamma[:, : 3 * k_s] = (N_s[:, :, None] * n_vec[:, None, :]).reshape(n, 3 * k_s)
     gamma[:, 3 * k_s: 3 * (k_s + k)] = -(proj.N[:, :, None] * n_vec[:, None, :]).reshape(n, 3 * k)
+    r = -(weight * pressure)[:, None] * gamma
+    if not tangent:
+        return r, None
     dgamma = np.zeros((n, nq, nq))
     dgamma[:, : 3 * k_s] = (N_s[:, :, None, None] * proj.dnormal[:, None, :, :]).reshape(n, 3 * k_s, nq)
     dgamma[:, 3 * k_s: 3 * (k_s + k)] = -(proj.N[:, :, None, None] * proj.dnormal[:, None, :, :]
                                           + n_vec[:, None, :, None] * proj.dN[:, :, None, :]).reshape(n, 3 * k, nq)
-    r = -(weight * pressure)[:, None] * gamma
     K = (weight * stiffness)[:, None, None] * gamma[:, :, None] * proj.dg[:, None, :] \
         - (weight * pressure)[:, None, None] * dgamma
     return r, K

@@ -131,9 +131,11 @@ class ContactPair(ContactFeature):
         """Current coordinates (m, k, 3) of the slave facets' nodes, from a ghosted array."""
         return self.tables.X[self.facet_dofs[:, :, 0]] + values[self.facet_dofs]
 
-    def _slave_points(self, nodes=None):
-        nodes = self._facet_nodes(self.solid.w.x.array) if nodes is None else nodes
-        return np.einsum("na,nai->ni", self.point_N, nodes[self.point_facet])
+    def _slave_points(self, values=None):
+        """The points interpolated from values (m, k, 3) at the slave facets' nodes: their
+        positions (default), or a change of them."""
+        values = self._facet_nodes(self.solid.w.x.array) if values is None else values
+        return np.einsum("na,nai->ni", self.point_N, values[self.point_facet])
 
     def _positions(self):
         return self._slave_points(), self.master_positions()
@@ -164,17 +166,20 @@ class ContactPair(ContactFeature):
         c = self.centroid[seg]
         order = np.lexsort((c[:, 2], c[:, 1], c[:, 0], np.abs(g), point))
         first = order[np.r_[True, point[order][1:] != point[order][:-1]]] if len(order) else order
-        return Selection(point[first], seg[first], g[first])
+        return Selection(point[first], seg[first], g[first], proj.take(np.flatnonzero(ok)[first]))
 
     def _forces(self, sel, index, p, k, tangent):
         point, seg = sel.point[index], sel.target[index]
-        xs, xm = self._selection[0]
-        proj = project(xs[point], self.point_N[point], xm[self.patch.nodes[seg]], self.patch.rows(seg), self.kind,
-                       derivatives=True)
-        r, K = traction(self.weight[point], p, k, proj, self.point_N[point])
+        proj = sel.projection.take(index)
+        if tangent:  # the derivatives, from the feet the selection found
+            xs, xm = self._selection[0]
+            proj = project(xs[point], self.point_N[point], xm[self.patch.nodes[seg]], self.patch.rows(seg), self.kind,
+                           derivatives=True, start=proj.xi)
+        size = self.patch.nodes.shape[1]
+        r, K = traction(self.weight[point], p, k, proj, self.point_N[point], size, tangent)
         rows = np.hstack([self.facet_global[self.point_facet[point]],
-                          self.master_global[self.patch.nodes[seg]].reshape(len(point), 3 * self.patch.nodes.shape[1])])
-        return rows, r, K if tangent else None, proj.normal
+                          self.master_global[self.patch.nodes[seg]].reshape(len(point), 3 * size)])
+        return rows, r, K, proj.normal
 
     def _gaps_along(self, du):
         """The points that project on a segment now, and their gaps at the state changed by
