@@ -27,7 +27,11 @@ from eyeball_fenicsx.scenefile import load_scene
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.environ.get("DEMO_OUT", os.path.join("out", "segmental_buckle"))
 overrides = {"mesh.n_circ": int(os.environ["EYE_N_CIRC"])} if "EYE_N_CIRC" in os.environ else {}
-scene = load_scene(os.path.join(here, "segmental_buckle.toml"), overrides=overrides)
+# DEMO_COMM=self: every rank runs the whole operation alone (reproducible to the last bit)
+comm = MPI.COMM_SELF if os.environ.get("DEMO_COMM") == "self" else MPI.COMM_WORLD
+if comm is MPI.COMM_SELF:
+    out = os.path.join(out, f"rank_{MPI.COMM_WORLD.rank}")
+scene = load_scene(os.path.join(here, "segmental_buckle.toml"), comm=comm, overrides=overrides)
 summary = scene.run(out)
 # -
 
@@ -45,7 +49,7 @@ indentation = final["eye"]["buckle_height_mm"] - before["eye"]["buckle_height_mm
 # ## What the surgeon asks
 
 # +
-if MPI.COMM_WORLD.rank == 0:
+if comm.rank == 0 and MPI.COMM_WORLD.rank == 0:
     print(f"tire: sclera's push {np.round(contact, 4).tolist()} N, sutures' pull {np.round(sutures, 4).tolist()} N; "
           f"x-z balance {balance_error:.1e}")
     print(f"{'step':<12}{'axial length change':>22}{'IOP':>10}{'buckle height':>16}{'retina gap':>13}{'detached':>14}")

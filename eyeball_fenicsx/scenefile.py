@@ -190,7 +190,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
                 raise t.error(f"suture name {point['name']!r} is used twice: rename the [[suture]]")
             sutures.add(point["name"])
             ends = {"first_surface": point["sclera_surface"], "second_surface": point["buckle_surface"]}
-            features.append(Suture(point["name"], point["sclera"], point["buckle"], **ends, **pull))
+            features.append(Suture(point["name"], point["sclera"], point["buckle"], share=point["share"], **ends, **pull))
     if "eye" in data:
         t = Table(data["eye"], f"{path}: [eye]", {"vitreous", "anterior", "posterior", "anterior_surface",
                                                    "posterior_surface", "buckle", "sclera", "retina", "choroid"})

@@ -40,6 +40,8 @@ class Suture(Feature):
         first_surface, second_surface: surfaces to pick the nodes from.
         anchored: the second end is a fixed point in space, not a node.
         bilateral: the string also pushes (a loop tied around a buckle), see the module docstring.
+        share: the part of the suture in the model: 1/2 for a suture on a symmetry plane, whose
+            mirror image holds the other half (its tension, stiffness and forces are halved).
     """
 
     section = "sutures"
@@ -48,14 +50,16 @@ class Suture(Feature):
     symmetric_tangent = True  # the Hessian of the string's potential
 
     def __init__(self, name, first, second, tension=None, shortening=None, stiffness=None,
-                 first_surface=None, second_surface=None, anchored=False, bilateral=False, step=0):
+                 first_surface=None, second_surface=None, anchored=False, bilateral=False, share=1.0, step=0):
         if (tension is None) == (shortening is None):
             raise SceneError(f"suture {name!r}: give exactly one of tension or shortening")
         for key, value in (("tension", tension), ("shortening", shortening), ("stiffness", stiffness)):
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
                                       or not np.isfinite(value) or value < 0):
                 raise SceneError(f"suture {name!r}: {key} must be a non-negative number, got {value!r}")
-        self.name, self.step = name, step
+        if not 0 < share <= 1:
+            raise SceneError(f"suture {name!r}: share must be in (0, 1], got {share!r}")
+        self.name, self.step, self.share = name, step, share
         self.first_point, self.second_point = np.asarray(first, float), np.asarray(second, float)
         self.tension, self.shortening, self.stiffness = tension, shortening, stiffness
         self.surfaces, self.anchored, self.bilateral = (first_surface, second_surface), anchored, bilateral
@@ -101,12 +105,13 @@ class Suture(Feature):
         self.length = np.linalg.norm(xb - xa)
         self.direction = (xb - xa) / self.length
         if self.tension is not None:
-            self.force, self.slope = self.factor * self.tension, 0.0
+            self.force, self.slope = self.share * self.factor * self.tension, 0.0
         else:
             stretch = self.length - (self.initial_length - self.factor * self.shortening)
             # taut from its rest length on: a string tied at rest already holds what it ties
             taut = stretch >= 0 or self.bilateral
-            self.force, self.slope = (self.stiffness * stretch, self.stiffness) if taut else (0.0, 0.0)
+            k = self.share * self.stiffness
+            self.force, self.slope = (k * stretch, k) if taut else (0.0, 0.0)
 
     def _block(self):
         e = self.direction
@@ -138,8 +143,8 @@ class Suture(Feature):
         return np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs))
 
     def report(self):
-        """Tension, current and initial length, and the force the string puts on its second end
-        (-T e; the first end takes +T e)."""
-        return {"tension": float(self.force), "length": float(self.length),
+        """The thread's tension, current and initial length, and the force the string puts on its
+        second end in the model (-share T e; the first end takes +share T e)."""
+        return {"tension": float(self.force / self.share), "share": self.share, "length": float(self.length),
                 "initial_length": float(self.initial_length),
                 "force_on_second": (-self.force * self.direction).tolist()}

@@ -41,7 +41,10 @@ sclera's outer surface, at arc length ``suture_width`` / 2 in front of or behind
 line (the seed's "suture width", wider than the buckle, so that the tightened strings press the
 buckle into the eye), to a *buckle point*, a node of the top edge on the same side (front or back)
 of the sutured body: the tire if there is one, else the band. At each azimuth there are two
-sutures, "front" and "back", as the two arms of a mattress suture.
+sutures, "front" and "back", as the two arms of a mattress suture. In a wedge model a suture on a
+cut plane is kept with ``share`` 1/2 (its mirror image holds the other half): dropping it can leave
+the buckle with a single suture azimuth, whose two strings meet the buckle in one meridian and
+leave it free to slide along the sclera before contact holds it (a singular tangent).
 
 Usage: ``python3 -m meshes.buckled_eye --out buckled.msh [--tire 4 1 360 0] [--detachment 20 0.1]``
 """
@@ -421,7 +424,7 @@ def suture_points(parameters=None, count=4, suture_width=None, azimuth_deg=None)
         count: number of suture azimuths over the whole eye: 360 (k + 1/2) / count degrees for a
             ring (45, 135, 225, 315 for 4: one in each oblique quadrant, between the rectus
             muscles), spread the same way over the arc of a segmental tire. In a wedge model
-            only those strictly inside the wedge are kept.
+            those on a cut plane are kept at half share, those in the mirror image dropped.
         suture_width: distance between the two bites of a suture, measured along the sclera's
             meridian (default: the widest buckle body's footprint plus ``SUTURE_MARGIN`` on each
             side); it must exceed the widest body's footprint.
@@ -434,7 +437,8 @@ def suture_points(parameters=None, count=4, suture_width=None, azimuth_deg=None)
 
     Returns:
         A list of dicts, two per azimuth ("back" then "front"): {"name": "suture_<azimuth>_<side>",
-        "azimuth_deg", "side", "sclera": bite point (x, y, z), "buckle": buckle point,
+        "azimuth_deg", "side", "share" (1, or 1/2 on a cut plane of a wedge), "sclera": bite point
+        (x, y, z), "buckle": buckle point,
         "sclera_surface": "sclera_outer", "buckle_surface": "<body>_outer"} -- ready for
         ``Suture(name, first=sclera, second=buckle, first_surface=..., second_surface=...)``.
     """
@@ -467,11 +471,11 @@ def suture_points(parameters=None, count=4, suture_width=None, azimuth_deg=None)
         if distance.min() > step:
             raise SceneError(f"buckled_eye: no suture at azimuth {math.degrees(phi):.1f} deg, outside the tire")
         phi = float(body.azimuths[np.argmin(distance)]) % (2 * np.pi)
-        on_cut = wedge and not 1e-9 < phi < sector - 1e-9  # a wedge keeps those strictly inside it
-        if not on_cut and all(abs(phi - other) > 1e-9 for other in snapped):
+        if all(abs(phi - other) > 1e-9 for other in snapped):
             snapped.append(phi)
     sutures = []
     for phi in snapped:
+        share = 0.5 if wedge and not 1e-9 < phi < sector - 1e-9 else 1.0  # on a cut plane: half in the wedge
         direction = np.array([math.cos(phi), math.sin(phi)])
         for side, sign in zip(_SUTURE_SIDES, (-1, 1)):
             bite, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
@@ -479,7 +483,7 @@ def suture_points(parameters=None, count=4, suture_width=None, azimuth_deg=None)
             buckle = body.outer_radius * np.array([*(math.sin(edge) * direction), -math.cos(edge)])
             degrees = math.degrees(phi)
             sutures.append({"name": f"suture_{degrees:g}_{side}", "azimuth_deg": degrees, "side": side,
-                            "sclera": tuple(sclera.tolist()), "buckle": tuple(buckle.tolist()),
+                            "share": share, "sclera": tuple(sclera.tolist()), "buckle": tuple(buckle.tolist()),
                             "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer"})
     return sutures
 

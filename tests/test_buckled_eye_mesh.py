@@ -354,3 +354,13 @@ def test_cli(tmp_path):
     assert set(data.regions) == TISSUES | {"tire", "band"}
     assert set(data.surfaces) == (EYE_SURFACES | BAND_SURFACES | TIRE_SURFACES
                                   | {"tire_end_0", "retina_outer", "choroid_inner", "cut_0", "cut_1"})
+
+
+def test_suture_on_a_cut_plane_is_kept_at_half_share():
+    """On the coarse half eye the tire's sutures at +-7.5 degrees both move to the node on the cut
+    plane: that suture is kept, half of it in the wedge; without it a single suture azimuth would
+    leave the tire free to slide along the sclera before contact holds it (a singular tangent)."""
+    tire = {"width": 4.0, "height": 1.0, "arc_deg": 60.0, "azimuth_deg": 0.0}
+    sutures = buckled_eye.suture_points({"n_circ": 16, "sector_deg": 180.0, "tire": tire}, count=4)
+    shares = sorted((s["azimuth_deg"], s["side"], s["share"]) for s in sutures)
+    assert shares == [(0.0, "back", 0.5), (0.0, "front", 0.5), (22.5, "back", 1.0), (22.5, "front", 1.0)]

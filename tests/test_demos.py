@@ -25,7 +25,7 @@ DEMOS = {
     "encircling_buckle.py": ({"EYE_N_CIRC": "16", "DEMO_COMM": "self"},
                              [("balance_error", 1e-6), ("hoop_error", 0.05), ("still_detached", 0.5)]),
     # a segmental tire pressed in by its sutures on a coarse eye: contact and sutures hold it,
-    # exactly along x and z, and the sutures indent the sclera (0.11 mm more on this mesh)
+    # exactly along x and z, and the sutures indent the sclera (0.50 mm more on this mesh)
     "segmental_buckle.py": ({"EYE_N_CIRC": "16"}, [("balance_error", 1e-6), ("indentation", (0.05, 1.0))]),
 }
 
@@ -54,15 +54,23 @@ def test_demo(demo, shared_tmp, monkeypatch):
         assert low < result[variable] < high, variable
 
 
-def test_encircling_buckle_agrees_on_one_and_two_ranks(shared_tmp, monkeypatch):
-    """The operation on the coarse eye, each rank alone (test_demo) and both ranks together: the
-    same predictions, to the solver's tolerance and the penalty's, well within 1 %."""
-    environment = DEMOS["encircling_buckle.py"][0]
-    alone = RESULTS.get("encircling_buckle.py") or run_demo("encircling_buckle.py", environment,
-                                                           os.path.join(shared_tmp, "alone"), monkeypatch)
-    together = run_demo("encircling_buckle.py", {**environment, "DEMO_COMM": "world"},
-                        os.path.join(shared_tmp, "together"), monkeypatch)
-    assert together["comm"].size == MPI.COMM_WORLD.size
-    for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2"):
-        assert together["final"]["eye"][key] == pytest.approx(alone["final"]["eye"][key], rel=0.01), key
-    assert together["still_detached"] == pytest.approx(alone["still_detached"], abs=0.01)
+@pytest.mark.parametrize("demo", ["encircling_buckle.py", "segmental_buckle.py"])
+def test_buckle_agrees_on_one_and_two_ranks(demo, shared_tmp, monkeypatch):
+    """The operation on the coarse eye, each rank alone and both ranks together (one of the two
+    is test_demo's run): the same predictions to 1e-6, the contract's "identical to the solver's
+    tolerance" (the contact's ties go by a partition-independent rule, so the Newton histories
+    are the same; measured: 1e-12)."""
+    environment = DEMOS[demo][0]
+    runs = {}
+    for comm in ("self", "world"):
+        if RESULTS.get(demo) is not None and environment.get("DEMO_COMM", "world") == comm:
+            runs[comm] = RESULTS[demo]
+        else:
+            runs[comm] = run_demo(demo, {**environment, "DEMO_COMM": comm}, os.path.join(shared_tmp, comm), monkeypatch)
+    assert runs["world"]["comm"].size == MPI.COMM_WORLD.size and runs["self"]["comm"].size == 1
+    alone, together = (runs[c]["summary"] for c in ("self", "world"))
+    for step_alone, step_together in zip(alone["steps"], together["steps"], strict=True):
+        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2"):
+            assert step_together["eye"][key] == pytest.approx(step_alone["eye"][key], rel=1e-6, abs=1e-9), key
+        for name, contact in step_alone["contact"].items():
+            assert step_together["contact"][name]["force"] == pytest.approx(contact["force"], rel=1e-6, abs=1e-9), name
