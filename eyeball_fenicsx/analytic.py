@@ -2,6 +2,7 @@
 
 Generalized Mooney-Rivlin coefficients are given as ``{(r, s): c_rs}``.
 """
+import numpy as np
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
@@ -40,3 +41,34 @@ def sphere_pressure(lam_a, c, A, B):
 def sphere_inner_stretch(P, c, A, B, upper=3.0):
     """Inner stretch a/A of the thick sphere under inner pressure P (on the rising branch)."""
     return brentq(lambda lam: sphere_pressure(lam, c, A, B) - P, 1.0, upper, xtol=1e-14)
+
+
+def layered_sphere_pressure(k, layers):
+    """Inner pressure of a thick sphere of bonded incompressible layers ``[(A, B, c), ...]``
+    (reference radii inside out, coefficients) whose cavity grew by 4 pi k / 3: a radial motion
+    keeps r^3 - R^3 = k through every layer, and each layer carries ``sphere_pressure`` at its
+    inner stretch (Ogden 1984, sec. 5.2.2)."""
+    return sum(sphere_pressure(((A**3 + k) / A**3) ** (1 / 3), c, A, B) for A, B, c in layers)
+
+
+def layered_sphere_growth(P, layers):
+    """k = a^3 - A^3 of the layered sphere under inner pressure P (on the rising branch)."""
+    inner = layers[0][0] ** 3
+    return brentq(lambda k: layered_sphere_pressure(k, layers) - P, 0.0, inner, xtol=1e-12 * inner)
+
+
+def wall_volume_change(P0, P1, angles, layers, materials):
+    """Cavity volume added from pressure P0 to P1 inside a wall of revolution that is, direction
+    by direction, a layered sphere: 2 pi / 3 integral of (k(P1) - k(P0)) sin(angle) (trapezoid
+    rule on the given polar angles; ``layers`` one list per angle of ``(A, B, tissue)``, inside
+    out, and ``materials`` the coefficients of each tissue).
+
+    Adding the directions independently is exact for a closed spherical membrane of any thickness
+    in linear theory: its stress resultants are N = P R / 2 whatever the thickness (statically
+    determinate), each patch strains as its own thickness requires, and the volume change,
+    (R / 2) integral of (e_theta + e_phi) dA, takes no part from the meridional displacement
+    (it integrates to a boundary term, zero on a closed surface). The per-direction thick sphere
+    then carries the finite strain and the wall's thickness."""
+    walls = [[(A, B, materials[tissue]) for A, B, tissue in wall] for wall in layers]
+    k = np.array([[layered_sphere_growth(P, wall) for wall in walls] for P in (P0, P1)])
+    return 2 * np.pi / 3 * np.trapz((k[1] - k[0]) * np.sin(angles), angles)

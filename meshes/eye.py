@@ -675,6 +675,55 @@ def eye_geometry(axial_length=24.0, sclera_thickness_limbus=0.5, sclera_thicknes
     return EyeMesh(nodes, {name: hexes[regions == name] for name in order}, surfaces, info)
 
 
+def scleral_wall(samples=60, **parameters):
+    """The wall around the vitreous as the mesh builds it, direction by direction from the centre
+    of the sclera, for estimates that treat each direction as a piece of a layered sphere.
+
+    On the sclera the shell's lines are radial (but within ``LIMBUS_BLEND`` of the limbus), so at
+    polar angle theta (from the posterior pole) the wall is concentric spherical layers: retina,
+    choroid and sclera up to the ora serrata, the ciliary body and the sclera from there to the
+    scleral spur, where the ciliary body ends. The sclera in front of the spur and the cornea are
+    left out (they bound the aqueous, a cavity of its own).
+
+    Args:
+        samples: number of polar angles, equally spaced from the pole to the scleral spur.
+        parameters: as :func:`eye_geometry` (defaults the same).
+
+    Returns:
+        (theta, layers): the polar angles (radians), and for each the layers inside out,
+        ``[(inner radius, outer radius, tissue), ...]`` in mm.
+    """
+    p = {name: value.default for name, value in inspect.signature(eye_geometry).parameters.items()}
+    p.update(parameters)
+    m = _Meridian(p)
+    inner = p["choroid_thickness"] + p["retina_thickness"]
+    theta, layers = np.linspace(0.0, m.s_spur / m.Ro, samples), []
+    for s in m.Ro * theta:
+        scleral = m.Ro - float(m.shell_thickness(s))
+        below = scleral - float(m.inner_thickness(s))
+        if s < m.s_ora:
+            choroid = scleral - p["choroid_thickness"] / inner * (scleral - below)
+            layers.append([(below, choroid, "retina"), (choroid, scleral, "choroid"), (scleral, m.Ro, "sclera")])
+        else:
+            layers.append([(below, scleral, "ciliary_body"), (scleral, m.Ro, "sclera")])
+    return theta, layers
+
+
+def corneal_cap(samples=20, **parameters):
+    """The cornea as the mesh builds it: a cap of the sphere of radius ``CORNEA_RADIUS`` whose
+    thickness grows from the apex to the limbus, seen from that sphere's centre.
+
+    Returns:
+        (phi, layers): angles from the apex (radians) up to the limbus, and for each
+        ``[(inner radius, outer radius, "cornea")]``.
+    """
+    p = {name: value.default for name, value in inspect.signature(eye_geometry).parameters.items()}
+    p.update(parameters)
+    m = _Meridian(p)
+    phi = np.linspace(0.0, m.phi_l, samples)
+    return phi, [[(m.Rc - float(m.shell_thickness(m.S - m.Rc * angle)), m.Rc, "cornea")] for angle in phi]
+
+
 def build_eye(**parameters):
     """Add the gmsh model "eye": a human eye in 8-node hexahedra (see the module docstring).
 

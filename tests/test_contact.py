@@ -245,7 +245,13 @@ def test_hertz_rigid_sphere_on_incompressible_half_space():
 
     Quarter model (symmetry x0, y0; the sphere's centre on the edge x = y = 0) of a block
     30 a deep and wide, a = (R d)^1/2 the contact radius, on a roller base, graded from
-    7 elements across 1.3 a to the far boundary; the finite block stiffens it by ~a / L."""
+    7 elements across 1.3 a to the far boundary. The block is a layer of depth L on a frictionless
+    base, which multiplies the force by 1 + 0.884 chi + 0.781 chi^2 + 0.386 chi^3 + 0.0048 chi^4,
+    chi = a / L (Dimitriadis et al., Biophys. J. 82 (2002) 2798, eq. 11, non-bonded, nu = 1/2):
+    3.0 % at d. Against that, the final force within 2 %, the error of Q1/P0 with 7 elements across
+    1.3 a (tests/test_contact_convergence.py: +1.0 % on 5, -0.7 % on 7); the increments before
+    the last carry the penalty's penetration (the augmented Lagrangian completes at the step's
+    end) and fewer elements across their smaller a: within 3 %."""
     c10, R, d = 0.5, 10.0, 0.1
     a = np.sqrt(R * d)
     L = 30 * a
@@ -260,9 +266,11 @@ def test_hertz_rigid_sphere_on_incompressible_half_space():
                      log=lambda message: curve.append((-sphere.shift[2], -4 * sphere.report()["force"][2])))
     scene.run()
     depth, force = np.array(curve).T
-    hertz = 16 / 3 * (2 * c10) * np.sqrt(R) * depth**1.5
-    assert force[-1] == pytest.approx(hertz[-1], rel=0.03)
-    assert force[1:] == pytest.approx(hertz[1:], rel=0.03)
+    chi = np.sqrt(R * depth) / L
+    hertz = 16 / 3 * (2 * c10) * np.sqrt(R) * depth**1.5 * (1 + 0.884 * chi + 0.781 * chi**2 + 0.386 * chi**3
+                                                            + 0.0048 * chi**4)
+    assert force[-1] == pytest.approx(hertz[-1], rel=0.02), force / hertz
+    assert force[1:] == pytest.approx(hertz[1:], rel=0.03), force / hertz
     slope = np.log(force[-1] / force[1]) / np.log(depth[-1] / depth[1])
     assert slope == pytest.approx(1.5, abs=0.05)
 

@@ -14,11 +14,22 @@ DEMOS = {
     "thick_sphere.py": ({}, [("error", 0.015)]),
     # liquid-filled thin sphere through the pressure maximum: ~0.1% of the peak pressure
     "liquid_sphere.py": ({}, [("error", 0.005)]),
-    # rigid sphere on an incompressible block: Hertz F = 16/3 mu R^1/2 d^3/2 within 3%
-    "hertz_indentation.py": ({}, [("error", 0.03)]),
-    # the eye filled to 15 mmHg; after injecting and withdrawing 60 microlitres an elastic
-    # eye is back at its IOP and axial length (to the solver's tolerance)
-    "eye_at_rest.py": ({"EYE_N_CIRC": "16"}, [("iop_error", 0.01), ("back_to_rest", 1e-6)]),
+    # rigid sphere on an incompressible block 30 a deep: Hertz F = 16/3 mu R^1/2 d^3/2 times the
+    # finite-depth factor (Dimitriadis et al. 2002, 3.0 % here) within 2 %, the error of Q1/P0 with
+    # 7 elements across 1.3 a (tests/test_contact_convergence.py: +1.0 % on 5, -0.7 % on 7)
+    "hertz_indentation.py": ({}, [("error", 0.02)]),
+    # the eye's pressure-volume curve: the IOP rises with every injection, and the ocular rigidity
+    # is the layered thick-sphere estimate from the model's own sclera, choroid and retina (the
+    # demo states it; Laplace's law, Ogden 1984 sec. 5.2.2) within 15 % (measured +3.9 %): the
+    # cornea is left out, which if the lens-zonule diaphragm passed the vitreous pressure on
+    # would soften the eye by 10 % (its cap adds 6.2 of 62 microlitres); the nerve's pole and the
+    # band from the scleral spur to the limbus (3 % of the solid angle) and the limbus' kink are
+    # not a sphere; the 16 sectors put the facets up to 1.9 % of R inside the sphere, and the
+    # compliance goes as R^4. Consistency only: the first IOP reads back the prescribed 15 mmHg,
+    # and after withdrawing the 60 microlitres the IOP and axial length are back to 1e-6 of
+    # their excursion (the solver's tolerance; not a number if the injection did nothing).
+    "eye_at_rest.py": ({"EYE_N_CIRC": "16"}, [("iop_rise_min", (0.0, float("inf"))), ("rigidity_error", (-0.15, 0.15)),
+                                              ("iop_readback_error", 0.01), ("injection_reversible", 1e-6)]),
     # the encircling buckle's three steps on a coarse eye: contact and sutures hold the band, exactly
     # along x and z, and along y to Laplace's law for its hoop tension (1.9 % on this mesh); the
     # buckle pushes the choroid onto the retina, and most of the detachment closes (24 % stays open)
