@@ -69,12 +69,21 @@ hoop_error = abs(held[1] - 2 * hoop_tension) / (2 * hoop_tension)
 # ## The retina
 #
 # The detachment is centred under the band. Where the buckle pushes the choroid against the
-# retina, the retina-choroid contact carries it: the part of the detached area (gap above
-# 0.01 mm) that stays detached after the operation.
+# retina, the retina-choroid contact carries it. Contact keeps the retina out of the choroid to
+# the augmented Lagrangian's tolerance: it stops when the multipliers change by less than
+# AUGMENT_TOLERANCE = 1e-5 (relative), which leaves a penetration of about 1e-5 p / alpha, under
+# 1e-7 mm for contact pressures p of the IOP's order (0.003 MPa) and the pair's penalty alpha
+# (0.55 MPa/mm on the coarse eye): the penetration the measures read beyond their own 0.01 mm
+# resolution (`retina_penetration_max_mm`) must stay below 1e-6 mm, and the contact must carry
+# some retina nodes. A retina through the choroid is not attached: the part of the detachment
+# left open after the operation counts the detached area (gap above 0.01 mm) and the penetrated.
+# No published figure or closed form gives that fraction for this model; that the operation
+# closes part of it is a consistency check only.
 
 # +
-detached = [step["eye"]["detached_area_mm2"] for step in summary["steps"]]
-still_detached = detached[-1] / detached[0]
+eyes = [step["eye"] for step in summary["steps"]]
+open_fraction = (eyes[-1]["detached_area_mm2"] + eyes[-1]["penetrated_area_mm2"]) / eyes[0]["detached_area_mm2"]
+retina_penetration = max(e["retina_penetration_max_mm"] for e in eyes)
 retina_nodes = final["contact"]["retina-choroid"]["active_nodes"]
 # -
 
@@ -86,14 +95,14 @@ if comm.rank == 0 and MPI.COMM_WORLD.rank == 0:
           f"{held[1] / 2:.4f} N (contact {contact[1]:.4f} N less sutures {-sutures[1]:.4f} N, halved): "
           f"{100 * hoop_error:.1f} %; x-z balance {balance_error:.1e}")
     print(f"{'step':<12}{'axial length change':>22}{'refraction':>12}{'IOP':>10}{'buckle height':>16}"
-          f"{'retina gap':>13}{'detached':>14}")
+          f"{'retina gap':>13}{'detached':>14}{'penetrated':>14}")
     for step in summary["steps"]:
         eye = step["eye"]
         print(f"{step['name']:<12}{eye['axial_length_change_mm']:>19.3f} mm{eye['refraction_change_D']:>10.2f} D"
               f"{eye['iop_mmHg']:>6.1f} mmHg{eye['buckle_height_mm']:>13.3f} mm{eye['retina_gap_max_mm']:>10.3f} mm"
-              f"{eye['detached_area_mm2']:>9.1f} mm^2")
-    print(f"retina: {retina_nodes} nodes on the choroid, {100 * still_detached:.0f} % of the detached area "
-          "still detached")
+              f"{eye['detached_area_mm2']:>9.1f} mm^2{eye['penetrated_area_mm2']:>9.1f} mm^2")
+    print(f"retina: {retina_nodes} nodes on the choroid, through it by {retina_penetration:.3f} mm beyond 0.01 mm; "
+          f"{100 * open_fraction:.0f} % of the detachment still open (detached or penetrated)")
     first, last = summary["steps"][0]["eye"], summary["steps"][-1]["eye"]
     print(f"the buckle (after 'pressurize'): axial length {last['axial_length_mm'] - first['axial_length_mm']:+.3f} mm, "
           f"IOP {last['iop_mmHg'] - first['iop_mmHg']:+.1f} mmHg")

@@ -39,6 +39,15 @@ With a detachment (the retina's outer surface "retina_outer" and the choroid's i
 * ``detached_area_mm2``: the reference area of "retina_outer" where the gap, interpolated
   bilinearly from the nodes, exceeds ``DETACHED_GAP`` (integrated at 7 x 7 Gauss points per
   facet). It is the area *of the model*: a half model (a wedge) reports half of the eye's.
+* ``retina_penetration_max_mm``: how far the retina has passed through the choroid beyond
+  ``PENETRATION_TOLERANCE``: max(0, -min gap - PENETRATION_TOLERANCE) over the retina's nodes.
+  Contact with the choroid keeps the gap at zero to far less than that (the augmented
+  Lagrangian leaves a penetration of AUGMENT_TOLERANCE times the contact pressure over the
+  penalty: about 1e-7 mm for the eye's pressures and penalty), so anything above 0 is a
+  failure to report (contact that did not act, or a mesh too coarse for it), not attachment.
+* ``penetrated_area_mm2``: the reference area of "retina_outer" where the gap is below
+  ``-PENETRATION_TOLERANCE`` (as ``detached_area_mm2``). A retina through the choroid is not
+  attached: the attached area is the detachment's area less the detached and the penetrated.
 """
 import numpy as np
 import ufl
@@ -58,6 +67,10 @@ DIOPTRES_PER_MM = -2.7
 # A retina more than this from the choroid is detached: a tenth of the 0.1 mm gaps of the
 # detachments we model (a retina in contact with the choroid has a gap <= 0: the penetration).
 DETACHED_GAP = 0.01
+# A retina more than this through the choroid has penetrated it: the same resolution as
+# DETACHED_GAP (the gap read in the choroid's tangent plane errs by s^2 / 2R, 7e-3 mm for a
+# slide s = 0.4 mm), far above what contact leaves (see retina_penetration_max_mm).
+PENETRATION_TOLERANCE = DETACHED_GAP
 
 
 def _polar_angle(X):
@@ -136,6 +149,7 @@ class EyeMeasures(Feature):
             ds = ufl.Measure("ds", domain=md.mesh, subdomain_data=md.facet_tags,
                              subdomain_id=md.surfaces[self.retina], metadata={"quadrature_degree": 12})
             self._detached = fem.form(ufl.conditional(ufl.gt(self.gap[0], DETACHED_GAP), 1.0, 0.0) * ds)
+            self._penetrated = fem.form(ufl.conditional(ufl.lt(self.gap[0], -PENETRATION_TOLERANCE), 1.0, 0.0) * ds)
 
     def _surface_nodes(self, surface):
         """The owned nodes (blocks of V) of a surface, wherever its facets are (collective)."""
@@ -174,8 +188,11 @@ class EyeMeasures(Feature):
         self.gap.x.array[:] = 0.0
         self.gap.x.array.reshape(-1, 3)[self.retina_nodes, 0] = gap
         self.gap.x.scatter_forward()
+        depth = comm.allreduce(-gap.min() if len(gap) else -np.inf, op=MPI.MAX)
         return {"retina_gap_max_mm": float(comm.allreduce(gap.max() if len(gap) else -np.inf, op=MPI.MAX)),
-                "detached_area_mm2": float(comm.allreduce(fem.assemble_scalar(self._detached), op=MPI.SUM))}
+                "detached_area_mm2": float(comm.allreduce(fem.assemble_scalar(self._detached), op=MPI.SUM)),
+                "retina_penetration_max_mm": float(max(depth - PENETRATION_TOLERANCE, 0.0)),
+                "penetrated_area_mm2": float(comm.allreduce(fem.assemble_scalar(self._penetrated), op=MPI.SUM))}
 
     def report(self):
         length = float(np.linalg.norm(self.ends[0].position() - self.ends[1].position()))

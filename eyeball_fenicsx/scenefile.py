@@ -27,7 +27,8 @@ Extensions beyond the contract (documented in README.md):
   given: ``buckle`` (the buckle's inner surface, "band_inner" or "tire_inner") with
   ``sclera`` (default "sclera_outer") for ``buckle_height_mm``, and ``retina`` and ``choroid``
   (the faces of the subretinal gap, "retina_outer" and "choroid_inner") for
-  ``retina_gap_max_mm`` and ``detached_area_mm2``;
+  ``retina_gap_max_mm``, ``detached_area_mm2``, ``retina_penetration_max_mm`` and
+  ``penetrated_area_mm2``;
 * ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (meshes/eye.py, band.py, buckled_eye.py);
 * ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``tension`` or ``shortening``,
   ``stiffness``, ``step``): sutures generated from the buckled eye's geometry, each tying a

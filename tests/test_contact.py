@@ -224,16 +224,21 @@ def test_penalty_from_the_scene_is_reported_and_leaves_no_penetration(block_mesh
     assert contact["max_penetration"] < 1e-5 * 0.1
 
 
-@pytest.mark.parametrize("make", [
-    lambda: RigidContact("c", "z1", "cone", center=[0, 0, 0], radius=1.0),
-    lambda: RigidContact("c", "z1", "sphere", center=[0, 0, 0]),
-    lambda: RigidContact("c", "z1", "sphere", center=[0, 0, 0], radius=-1.0),
-    lambda: RigidContact("c", "z1", "plane", point=[0, 0, 0], normal=[0, 0, 0]),
-    lambda: RigidContact("c", "z1", "plane", point=[0, 0, 0], normal=[0, 0, 1], penalty=0.0),
-    lambda: ContactPair("c", "z1", "z1"),
+@pytest.mark.parametrize("make, message", [
+    (lambda: RigidContact("c", "z1", "cone", center=[0, 0, 0], radius=1.0),
+     r"contact 'c': unknown rigid shape 'cone'; choose one of \['cylinder', 'plane', 'sphere'\]"),
+    (lambda: RigidContact("c", "z1", "sphere", center=[0, 0, 0]),
+     r"contact 'c': rigid sphere: .*missing 1 required positional argument: 'radius'"),
+    (lambda: RigidContact("c", "z1", "sphere", center=[0, 0, 0], radius=-1.0),
+     r"contact 'c': rigid sphere: radius must be a positive number, got -1\.0"),
+    (lambda: RigidContact("c", "z1", "plane", point=[0, 0, 0], normal=[0, 0, 0]),
+     r"contact 'c': rigid plane: plane normal must be a non-zero vector of three numbers, got \[0, 0, 0\]"),
+    (lambda: RigidContact("c", "z1", "plane", point=[0, 0, 0], normal=[0, 0, 1], penalty=0.0),
+     r"contact 'c': penalty must be a positive number \(pressure per unit penetration\), got 0\.0"),
+    (lambda: ContactPair("c", "z1", "z1"), r"contact 'c': slave and master are both 'z1'; name two surfaces"),
 ], ids=["unknown-shape", "missing-radius", "negative-radius", "zero-normal", "zero-penalty", "self"])
-def test_invalid_contact_is_a_scene_error(make):
-    with pytest.raises(ef.SceneError):
+def test_invalid_contact_is_a_scene_error(make, message):
+    with pytest.raises(ef.SceneError, match=message):
         make()
 
 

@@ -30,11 +30,14 @@ DEMOS = {
     # their excursion (the solver's tolerance; not a number if the injection did nothing).
     "eye_at_rest.py": ({"EYE_N_CIRC": "16"}, [("iop_rise_min", (0.0, float("inf"))), ("rigidity_error", (-0.15, 0.15)),
                                               ("iop_readback_error", 0.01), ("injection_reversible", 1e-6)]),
-    # the encircling buckle's three steps on a coarse eye: contact and sutures hold the band, exactly
-    # along x and z, and along y to Laplace's law for its hoop tension (1.9 % on this mesh); the
-    # buckle pushes the choroid onto the retina, and most of the detachment closes (24 % stays open)
+    # the encircling buckle's three steps on a coarse eye (EYE_N_CIRC=16, each rank alone: ~30 s):
+    # contact and sutures hold the band, exactly along x and z (a consistency check: the contact
+    # force is the summed slave residual), and along y to Laplace's law for its hoop tension (a
+    # physics check, 5 %: the band is also bent and pressed); consistency only, no outside reference:
+    # the operation closes part of the detachment (open_fraction < 1 counts the penetrated retina as
+    # open). The retina-choroid contact: test_encircling_retina_meets_choroid below.
     "encircling_buckle.py": ({"EYE_N_CIRC": "16", "DEMO_COMM": "self"},
-                             [("balance_error", 1e-6), ("hoop_error", 0.05), ("still_detached", 0.5)]),
+                             [("balance_error", 1e-6), ("hoop_error", 0.05), ("open_fraction", 1.0)]),
     # a segmental tire pressed in by its sutures on a coarse eye: contact and sutures hold it,
     # exactly along x and z, and the sutures indent the sclera (0.50 mm more on this mesh)
     "segmental_buckle.py": ({"EYE_N_CIRC": "16"}, [("balance_error", 1e-6), ("indentation", (0.05, 1.0))]),
@@ -65,6 +68,19 @@ def test_demo(demo, shared_tmp, monkeypatch):
         assert low < result[variable] < high, variable
 
 
+@pytest.mark.xfail(strict=True, reason="on the coarse eye the detachment is one sector wide, every retina facet "
+                   "shares rim nodes with the choroid facets under it, and contact/pair.py drops such candidates: "
+                   "the retina-choroid contact never acts and the retina passes through the choroid")
+def test_encircling_retina_meets_choroid(shared_tmp, monkeypatch):
+    """The buckle brings the choroid onto the retina: the retina-choroid contact carries retina
+    nodes, and keeps the retina out of the choroid to the augmented Lagrangian's tolerance
+    (1e-5 p / alpha < 1e-7 mm, the demo's argument) beyond the measures' 0.01 mm resolution."""
+    demo = "encircling_buckle.py"
+    result = RESULTS.get(demo) or run_demo(demo, DEMOS[demo][0], shared_tmp, monkeypatch)
+    assert result["retina_nodes"] > 0
+    assert result["retina_penetration"] < 1e-6
+
+
 @pytest.mark.parametrize("demo", ["encircling_buckle.py", "segmental_buckle.py"])
 def test_buckle_agrees_on_one_and_two_ranks(demo, shared_tmp, monkeypatch):
     """The operation on the coarse eye, each rank alone and both ranks together (one of the two
@@ -81,7 +97,7 @@ def test_buckle_agrees_on_one_and_two_ranks(demo, shared_tmp, monkeypatch):
     assert runs["world"]["comm"].size == MPI.COMM_WORLD.size and runs["self"]["comm"].size == 1
     alone, together = (runs[c]["summary"] for c in ("self", "world"))
     for step_alone, step_together in zip(alone["steps"], together["steps"], strict=True):
-        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2"):
+        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2", "retina_penetration_max_mm"):
             assert step_together["eye"][key] == pytest.approx(step_alone["eye"][key], rel=1e-6, abs=1e-9), key
         for name, contact in step_alone["contact"].items():
             assert step_together["contact"][name]["force"] == pytest.approx(contact["force"], rel=1e-6, abs=1e-9), name

@@ -11,11 +11,12 @@ import dolfinx
 import numpy as np
 import pytest
 from mpi4py import MPI
+from scipy.spatial import cKDTree
 
 from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.formulation import MixedSolid
 from eyeball_fenicsx.materials import NeoHooke
-from eyeball_fenicsx.measures import DETACHED_GAP, EyeMeasures
+from eyeball_fenicsx.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
 from eyeball_fenicsx.mesh import built_mesh
 from eyeball_fenicsx.scenefile import load_scene
 from meshes import buckled_eye, eye
@@ -108,6 +109,55 @@ def test_detachment_at_rest_and_moved(detached):
     shrunk = measures.report()
     assert shrunk["retina_gap_max_mm"] == pytest.approx(0.05 * at_rest["retina_gap_max_mm"], rel=1e-9)
     assert shrunk["detached_area_mm2"] == 0.0
+
+
+def test_penetration_is_not_attachment(detached):
+    """The detached retina pushed out along the lines through the centre onto the choroid and on
+    through it by a depth d: it reads a penetration of d less the tolerance, and the area it
+    crossed counts as penetrated, not as attached (nor as detached)."""
+    solid, measures = detached
+    gathered = [np.concatenate(part) for part in zip(*COMM.allgather(
+        (measures.X[measures.retina_nodes], measures.X[measures.choroid_nodes])))]
+    retina, choroid = (np.unique(nodes, axis=0) for nodes in gathered)
+    free = retina[cKDTree(choroid).query(retina)[0] > 1e-9]  # the rim's nodes are the choroid's
+    # each free retina node lies on the ray of one choroid node, 0.1 mm further in (the mesh's gap)
+    facing = choroid[cKDTree(choroid / np.linalg.norm(choroid, axis=1)[:, None]).query(
+        free / np.linalg.norm(free, axis=1)[:, None])[1]]
+    tree = cKDTree(free)
+
+    def through(depth):
+        def displacement(X):
+            distance, index = tree.query(X, distance_upper_bound=1e-9)
+            hit = np.isfinite(distance)
+            u = np.zeros_like(X)
+            target = facing[index[hit]]
+            u[hit] = target * (1 + depth / np.linalg.norm(target, axis=1))[:, None] - X[hit]
+            return u
+        return displacement
+
+    prescribe(solid, lambda X: np.zeros_like(X))
+    at_rest = measures.report()
+    assert at_rest["retina_penetration_max_mm"] == 0.0 and at_rest["penetrated_area_mm2"] == 0.0
+    # Through by d: the gap along the choroid's normal is -d (n . e_r), between -d and -d cos(pi /
+    # n_circ) (the tilt on the cut plane: test_detachment_at_rest_and_moved); the deepest, -d.
+    d = 0.05
+    prescribe(solid, through(d))
+    crossed = measures.report()
+    assert (d * math.cos(math.pi / N_CIRC) - PENETRATION_TOLERANCE - 1e-12 <= crossed["retina_penetration_max_mm"]
+            <= d - PENETRATION_TOLERANCE + 1e-12)
+    # Every free node is deeper than the tolerance, the rim's at 0: nothing is detached, and of the
+    # faces of retina_outer only the rim ring, where the gap goes linearly from 0 to at most -d cos(pi /
+    # n_circ), is not penetrated in part: more than 1 - tolerance / (d cos(pi / n_circ)) is.
+    assert crossed["detached_area_mm2"] == 0.0
+    ds = solid.ds(solid.mesh_data.surfaces["retina_outer"])
+    whole = COMM.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ds)), op=MPI.SUM)
+    assert (1 - PENETRATION_TOLERANCE / (d * math.cos(math.pi / N_CIRC))) * whole < crossed["penetrated_area_mm2"]
+    assert crossed["penetrated_area_mm2"] <= whole * (1 + 1e-12)
+    # Through by less than the tolerance: within what contact may leave, no penetration reported.
+    prescribe(solid, through(0.5 * PENETRATION_TOLERANCE))
+    within = measures.report()
+    assert within["retina_penetration_max_mm"] == 0.0 and within["penetrated_area_mm2"] == 0.0
+    assert within["detached_area_mm2"] == 0.0
 
 
 def test_buckle_height(buckled):
