@@ -151,10 +151,13 @@ class ContactPair(ContactFeature):
         x = xm[self.segments]
         reach = (SEARCH_FACTOR * self.segment_size + 2.0 * self.motion)[:, None]
         point, seg = candidate_pairs(xs, x.min(axis=1) - reach, x.max(axis=1) + reach)
-        # a segment that shares a node with the point's own facet is the same body's neighbour
+        # a segment made of the point's own facet's nodes is that facet (surfaces that overlap);
+        # segments that only share nodes with it stay: a detached retina meets the choroid facets
+        # it shares its rim with, and its Gauss points lie inside its facet, off the shared nodes
         facet_nodes = self.facet_node_global[self.point_facet[point]]
-        shared = np.any(self.master_node_global[self.segments[seg]][:, :, None] == facet_nodes[:, None, :], axis=(1, 2))
-        self.cand_point, self.cand_seg = point[~shared], seg[~shared]
+        same = self.master_node_global[self.segments[seg]][:, :, None] == facet_nodes[:, None, :]
+        own = np.all(np.any(same, axis=1), axis=1)
+        self.cand_point, self.cand_seg = point[~own], seg[~own]
         self.timing["search"] += time.perf_counter() - start
 
     def _select(self, positions):
