@@ -41,9 +41,13 @@ DEMOS = {
     "encircling_buckle.py": ({"EYE_N_CIRC": "16", "DEMO_COMM": "self"},
                              [("balance_error", 1e-6), ("hoop_error", 0.05), ("open_fraction", 1.0),
                               ("retina_nodes", (0, float("inf"))), ("retina_penetration", 1e-6)]),
-    # a segmental tire pressed in by its sutures on a coarse eye: contact and sutures hold it,
-    # exactly along x and z, and the sutures indent the sclera (0.50 mm more on this mesh)
-    "segmental_buckle.py": ({"EYE_N_CIRC": "16"}, [("balance_error", 1e-6), ("indentation", (0.05, 1.0))]),
+    # a segmental tire pressed in by its sutures on a coarse eye: contact and sutures hold it
+    # exactly along x and z (consistency: the contact force is the summed slave residual); the
+    # sutures indent the sclera by at most what their geometry allows, s / (e . r) per string
+    # (the demo's kinematic bound: bites held still, tire rigid), and by more than half of it
+    # (a judgment, not a bound: the bites and the squeezed tire taking more would mean a wall far
+    # softer than the seed's); measured 90 % on this mesh
+    "segmental_buckle.py": ({"EYE_N_CIRC": "16"}, [("balance_error", 1e-6), ("indentation_ratio", (0.5, 1.0))]),
 }
 
 
