@@ -41,7 +41,7 @@ from dolfinx import fem
 
 from ..feature import Feature
 from .law import pressure
-from .policy import ACTIVE_RANGE, AUGMENT_TOLERANCE, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
+from .policy import ACTIVE_RANGE, AITKEN_BOUNDS, AUGMENT_TOLERANCE, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
 from .surface import check_penalty
 
 _ADD = PETSc.InsertMode.ADD_VALUES
@@ -203,7 +203,7 @@ class ContactFeature(Feature):
             dots = self.solid.comm.allreduce(np.array([np.sum(weighted * self._last_update * change),
                                                        np.sum(weighted * change**2)]), op=MPI.SUM)
             if dots[1] > 0:
-                self._relaxation = float(np.clip(-self._relaxation * dots[0] / dots[1], 0.1, 10.0))
+                self._relaxation = float(np.clip(-self._relaxation * dots[0] / dots[1], *AITKEN_BOUNDS))
         self._last_update = update
         relaxed = np.maximum(self.node_multiplier + self._relaxation * update, 0.0)
         self.augmentations += 1

@@ -13,3 +13,4 @@ ONSET_DEPTH = 0.05  # a point closing in one Newton step may go this deep (fract
 ONSET_ITERATIONS = 8  # regula falsi steps to find where along a Newton step a gap reaches that depth
 AUGMENT_TOLERANCE = 1e-5  # the contact pressure field changes by less than this (relative, L2): augmented
 MAX_AUGMENTATIONS = 30  # Newton solves of one increment's end at most, for the augmentations
+AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
