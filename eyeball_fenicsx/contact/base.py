@@ -145,8 +145,8 @@ class ContactFeature(Feature):
         if self.active:
             state = self._state(tangent=True)
             self._contacts["jacobian"] = state["contacts"]
-            for rows, K in zip(state["rows"], state["K"]):
-                A.setValues(rows, rows, K, addv=_ADD)
+            if len(state["rows"]):  # one dense block per point, set in one call (PETSc loops)
+                A.setValuesRCV(state["rows"], state["rows"], state["K"], addv=_ADD)
         self.timing["assembly"] += time.perf_counter() - start
 
     def _reserve(self, A):

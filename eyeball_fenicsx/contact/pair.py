@@ -230,9 +230,8 @@ class ContactPair(ContactFeature):
         pairs = self._candidate_elements()
         rows = np.hstack([self.facet_global[pairs[:, 0]],
                           self.master_global[self.patch.nodes[pairs[:, 1]]].reshape(len(pairs), 3 * self.patch.nodes.shape[1])])
-        zeros = np.zeros((rows.shape[1], rows.shape[1]))
-        for element in rows:
-            A.setValues(element, element, zeros, addv=PETSc.InsertMode.ADD_VALUES)
+        if len(rows):
+            A.setValuesRCV(rows, rows, np.zeros((len(rows), rows.shape[1], rows.shape[1])), addv=PETSc.InsertMode.ADD_VALUES)
         self._unreserved = False
 
     def begin_increment(self):
