@@ -4,7 +4,8 @@ ranks, the load of the machine and the number of repeats.
     from provenance import run_record
     result = {"run": run_record(comm, repeats=3, load_average_before=load), ...}
 
-Collective: call it on every rank (the commit is read on rank 0 and broadcast).
+Collective: call it on every rank. The commit is read when this module is imported, at the
+start of the run (a file edited while a long benchmark runs does not change what ran).
 """
 import datetime
 import os
@@ -31,9 +32,11 @@ def hardware():
     return {"cpu": cpu, "cores": os.cpu_count(), "cores_per_rank": len(os.sched_getaffinity(0))}
 
 
+COMMIT_AT_START = commit()
+
+
 def run_record(comm, repeats, **extra):
     """The record of this run; ``extra`` adds the benchmark's own notes (settings, caveats)."""
-    head = comm.bcast(commit() if comm.rank == 0 else None, root=0)
-    return {"commit": head, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    return {"commit": COMMIT_AT_START, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             **hardware(), "ranks": comm.size, "repeats": repeats,
             "load_average_1min_at_end": os.getloadavg()[0], **extra}
