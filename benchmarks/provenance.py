@@ -15,12 +15,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def commit():
-    """HEAD of the repository the benchmark runs from, with "-dirty" when tracked files differ
-    from it (the numbers then come from code that no commit holds)."""
-    git = ["git", "-C", HERE]
+    """HEAD of the repository the benchmark runs from, with "-dirty" when tracked files other
+    than the results differ from it (the numbers then come from code that no commit holds)."""
+    git = ["git", "-C", os.path.dirname(HERE)]
     head = subprocess.run([*git, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
-    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                           text=True).stdout.strip()
+    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no", "--", ".",
+                            ":(exclude)benchmarks/results"], capture_output=True, text=True).stdout.strip()
     return (head or "unknown") + ("-dirty" if dirty else "")
 
 
