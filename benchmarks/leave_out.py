@@ -58,6 +58,7 @@ from eyeball_fenicsx.mesh import built_mesh
 from eyeball_fenicsx.solver import DEFAULT_OPTIONS, PREFIX
 from eyeball_fenicsx.sutures import Suture
 from meshes.sphere_octant import build_sphere_octant
+from provenance import run_record
 from sphere_scaling import busy_cores, event_seconds, wait_for_quiet
 
 comm = MPI.COMM_WORLD
@@ -376,6 +377,7 @@ def main():
                         help="before each round, wait up to this many seconds for other processes to leave the cores")
     parser.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "leave_out.json"))
     args = parser.parse_args()
+    load = os.getloadavg()[0]
     logging.disable(logging.INFO)  # a cold JIT logs every compiler call (CFFI, through setuptools)
     PETSc.Log.begin()
     PETSc.Options()[PREFIX + "pc_type"] = "lu"  # the reference's factorization (no LDL^T choice)
@@ -450,7 +452,8 @@ def main():
                         "outside_newton_per_solve_ms": 1e3 * statistics.median(r["wall_s"] - r["snes_s"]
                                                                                 for r in runs)})
         rows.append(row)
-    result = {"ranks": comm.size, "n": args.n, "layers": args.layers, "cells": cells,
+    result = {"run": run_record(comm, repeats=args.repeat, load_average_1min_at_start=load, calls=args.calls),
+              "ranks": comm.size, "n": args.n, "layers": args.layers, "cells": cells,
               "repeat": args.repeat, "calls": args.calls, "busy_cores": busy, "setup_s": setup_s,
               "max_difference_of_solution_bare_vs_reference": difference, "rows": rows,
               "surface_forms": surfaces, "framework_parts_ms": {k: 1e3 * v for k, v in parts.items()},

@@ -36,8 +36,8 @@ fastest counts. Rates are between consecutive sizes: ``rate_h`` in the mesh size
 
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 benchmarks/work_precision.py
 
-writes benchmarks/results/work_precision.json (a list of rows), benchmarks/results/work_precision.png
-(log-log error against wall time) and prints the table and which element reaches a given
+writes benchmarks/results/work_precision.json ({"run": the commit, date, hardware and load;
+"rows"}), benchmarks/results/work_precision.png (log-log error against wall time) and prints the table and which element reaches a given
 accuracy first. ``--quick`` runs small sizes only (a smoke test, about a minute).
 """
 import argparse
@@ -64,6 +64,7 @@ from eyeball_fenicsx.output import write_text_atomic
 from meshes.block import build_block
 from meshes.cook import TIP, build_cook
 from meshes.sphere_octant import build_sphere_octant, layer_radii, octant_directions
+from provenance import run_record
 
 comm = MPI.COMM_WORLD
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
@@ -358,6 +359,7 @@ def main():
     parser.add_argument("--repeat", type=int, default=3, help=f"runs of each case under {REPEAT_BELOW:g} s")
     parser.add_argument("--out", default=os.path.join(RESULTS, "work_precision.json"))
     args = parser.parse_args()
+    load = os.getloadavg()[0]
     sizes = QUICK if args.quick else SIZES
     cook_n = 8 if args.quick else args.cook_reference
 
@@ -389,7 +391,10 @@ def main():
         print("\n".join(verdicts(rows)))
         os.makedirs(os.path.dirname(args.out), exist_ok=True)
         plot(rows, os.path.splitext(args.out)[0] + ".png")
-    write_text_atomic(args.out, json.dumps(rows + checks, indent=1, allow_nan=False) + "\n", comm)
+    run_info = run_record(comm, repeats=args.repeat, load_average_1min_at_start=load, quick=args.quick,
+                          cook_reference=cook_n)
+    write_text_atomic(args.out, json.dumps({"run": run_info, "rows": rows + checks}, indent=1, allow_nan=False) + "\n",
+                      comm)
 
 
 if __name__ == "__main__":
