@@ -22,6 +22,8 @@ import tomllib
 
 import tomli_w
 
+import provenance
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SCENES = {"encircling": os.path.join(REPO, "demos", "encircling_buckle.toml"),
@@ -72,21 +74,16 @@ def largest_difference(reference, other):
     return worst
 
 
-def provenance():
-    commit = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
-    with open("/proc/cpuinfo") as f:
-        cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), "unknown")
-    return {"commit": commit, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "cpu": cpu, "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n-circ", type=int, default=40)
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--out", default=os.path.join("out", "rank_agreement"))
     args = parser.parse_args()
-    results = {"benchmark": "rank_agreement", "n_circ": args.n_circ, **provenance(), "scenes": {}}
+    results = {"benchmark": "rank_agreement", "n_circ": args.n_circ,
+               "run": {"commit": provenance.COMMIT_AT_START, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(
+                   timespec="seconds"), **provenance.hardware(), "load_average_1min_at_start": os.getloadavg()[0]},
+               "scenes": {}}
     rows = []
     for scene in SCENES:
         runs = {}
@@ -108,8 +105,8 @@ def main():
     with open(stem + ".json", "w") as f:
         json.dump(results, f, indent=1)
     lines = [f"# The same eye on {', '.join(map(str, args.ranks))} ranks (n_circ {args.n_circ})", "",
-             f"`benchmarks/rank_agreement.py`, commit {results['commit']}, {results['date']}, {results['cpu']}, "
-             f"{results['cores']} cores. Difference: the largest over every eye measure and contact force "
+             f"`benchmarks/rank_agreement.py`, commit {results['run']['commit']}, {results['run']['date']}, "
+             f"{results['run']['cpu']}, {results['run']['cores']} cores. Difference: the largest over every eye measure and contact force "
              f"component of every step, relative to the {args.ranks[0]}-rank run.", "",
              "| scene | ranks | status | wall s | max relative difference | measure |", "| --- | ---: | --- | ---: | ---: | --- |",
              *rows]
