@@ -11,7 +11,11 @@ afterwards), the second is the one reported, with its time split into
 * per step: wall time of its converged increments, their number, Newton iterations,
   factorizations;
 * inside the Newton iterations (PETSc events and the contact features' own timers): MUMPS
-  numeric factorization, Jacobian and residual evaluation, contact search and assembly.
+  numeric factorization, Jacobian and residual evaluation, contact search and assembly;
+* every Newton solve's residual norms (``newton_solves``, failed attempts and the augmented
+  Lagrangian's re-solves included) and, per solve, the order of convergence of its last two
+  steps with new tangents (``convergence_orders``; the chord steps that reuse a factorization
+  converge linearly by design, solver.py).
 
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 benchmarks/encircling_operation.py [--n-circ 40]
 
@@ -20,6 +24,7 @@ writes benchmarks/results/encircling_operation.json and prints the table. Issue 
 """
 import argparse
 import json
+import math
 import os
 import time
 
@@ -35,6 +40,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle.toml")
 EVENTS = {"factorization": ("MatLUFactorNum", "MatCholFctrNum"), "jacobian": ("SNESJacobianEval",),
           "residual": ("SNESFunctionEval",), "solve (triangular)": ("MatSolve",)}
+ROUND_OFF = 1e-11  # residual norms (N) below this are round-off on the default eye
 
 
 def event_seconds():
@@ -43,12 +49,44 @@ def event_seconds():
                                   op=MPI.SUM) / comm.size for group, names in EVENTS.items()}
 
 
+class Residuals:
+    """Every Newton solve's residual norms, and whether each step before them factorized a new
+    tangent (the others reuse one: chord steps, which converge linearly by design)."""
+
+    def __init__(self, newton):
+        self.newton, self.solves = newton, []
+
+    def __call__(self, snes, its, norm):
+        if its == 0:
+            self.solves.append({"norms": [], "new_tangent": []})
+        else:
+            self.solves[-1]["new_tangent"].append(not self.newton.reused)
+        self.solves[-1]["norms"].append(norm)
+
+    def orders(self):
+        """Per solve, the order of convergence of its last two consecutive steps with new
+        tangents, log(r_k / r_k-1) / log(r_k-1 / r_k-2): about 2 for Newton's quadratic
+        convergence. Steps that end below ROUND_OFF are left out (no longer the rate)."""
+        orders = []
+        for solve in self.solves:
+            r, new = solve["norms"], solve["new_tangent"]  # step k (1, 2, ...) takes r[k-1] to r[k]
+            pairs = [k for k in range(2, len(r)) if new[k - 2] and new[k - 1] and r[k] > ROUND_OFF
+                     and r[k] < r[k - 1] < r[k - 2]]
+            if pairs:
+                k = pairs[-1]
+                orders.append(math.log(r[k] / r[k - 1]) / math.log(r[k - 1] / r[k - 2]))
+        return orders
+
+
 def run_once(n_circ, out):
     start = time.perf_counter()
     scene = load_scene(SCENE, overrides={"mesh.n_circ": n_circ})
     mesh_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     before = event_seconds()
     start = time.perf_counter()
+    scene.build()
+    residuals = Residuals(scene.newton)
+    scene.newton.snes.setMonitor(residuals)
     summary = scene.run(out)
     run_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     events = {k: v - before[k] for k, v in event_seconds().items()}
@@ -67,6 +105,7 @@ def run_once(n_circ, out):
     return {"ok": summary["ok"], "cells": summary["cells"], "dofs": summary["dofs"], "ranks": comm.size,
             "mesh_s": mesh_s, "run_s": run_s, "setup_output_and_cut_back_s": setup_s, "steps": steps,
             "inside_newton_s": {**events, **contact},
+            "newton_solves": residuals.solves, "convergence_orders": residuals.orders(),
             "buckle": {"axial_length_change_mm": final["axial_length_mm"] - first["axial_length_mm"],
                        "iop_mmHg": [s["eye"]["iop_mmHg"] for s in summary["steps"]],
                        "buckle_height_mm": final.get("buckle_height_mm"),
@@ -101,6 +140,11 @@ def main():
         print("  inside the Newton iterations:")
         for key, seconds in result["inside_newton_s"].items():
             print(f"    {key:<26}{seconds:8.1f} s")
+        orders = sorted(result["convergence_orders"])
+        if orders:
+            print(f"  order of convergence of the last two Newton steps with new tangents, in {len(orders)} of "
+                  f"{len(result['newton_solves'])} solves: median {orders[len(orders) // 2]:.2f}, "
+                  f"range {orders[0]:.2f} to {orders[-1]:.2f}")
         b = result["buckle"]
         print(f"  the buckle: axial length {b['axial_length_change_mm']:+.3f} mm, IOP "
               + " -> ".join(f"{p:.1f}" for p in b["iop_mmHg"]) + " mmHg")
