@@ -709,21 +709,6 @@ def scleral_wall(samples=60, **parameters):
     return theta, layers
 
 
-def corneal_cap(samples=20, **parameters):
-    """The cornea as the mesh builds it: a cap of the sphere of radius ``CORNEA_RADIUS`` whose
-    thickness grows from the apex to the limbus, seen from that sphere's centre.
-
-    Returns:
-        (phi, layers): angles from the apex (radians) up to the limbus, and for each
-        ``[(inner radius, outer radius, "cornea")]``.
-    """
-    p = {name: value.default for name, value in inspect.signature(eye_geometry).parameters.items()}
-    p.update(parameters)
-    m = _Meridian(p)
-    phi = np.linspace(0.0, m.phi_l, samples)
-    return phi, [[(m.Rc - float(m.shell_thickness(m.S - m.Rc * angle)), m.Rc, "cornea")] for angle in phi]
-
-
 def build_eye(**parameters):
     """Add the gmsh model "eye": a human eye in 8-node hexahedra (see the module docstring).
 
