@@ -16,7 +16,7 @@ Problems (every one with an incompressible neo-Hooke solid, shear modulus 1, c10
   n/2 for a Richardson estimate of the reference's own error (the rows of the JSON whose
   ``role`` is "reference" and "reference check").
 * ``hertz``: a rigid sphere (R = 10) pressed d = 0.1 into a block (a quarter, 30 contact radii
-  a = (R d)^1/2 wide and deep, on a roller base) by penalty contact, as demos/hertz_indentation.py;
+  a = (R d)^1/2 wide and deep, on a roller base) by penalty contact with its augmented Lagrangian (the defaults), as demos/hertz_indentation.py;
   measured: the force; reference: Hertz, F = 16/3 mu R^1/2 d^3/2 (Johnson 1985, eq. 4.23,
   incompressible), which is a half-space at small strain: the error levels off at the model's
   own difference from it. Q1P0 only (contact needs first-order displacements). Mesh size n:
