@@ -274,7 +274,10 @@ def write_results(stem, meta, matrix, records, checks):
     lines = [f"# Planning matrix: {len(done)} variants, default solver settings",
              "",
              f"`benchmarks/planning_matrix.py`, n_circ {meta['n_circ']}, {knobs}; {meta['ranks']} ranks on "
-             f"{meta['nproc']} cores ({meta['cpu']}), commit {meta['commit']}, {meta['date']}.",
+             f"{meta['nproc']} cores ({meta['cpu']}); rows from " + "; ".join(
+                 f"commit {c} ({d}): {', '.join(v.name for v in done if records[v.name].get('commit', meta['commit']) == c)}"
+                 for c, d in sorted({(records[v.name].get("commit", meta["commit"]), records[v.name].get("date", meta["date"]))
+                                     for v in done}, key=lambda cd: cd[1])) + ".",
              "Per step (a+b+c): converged increments, Newton iterations of every attempt, cut-backs. "
              "Predictions after the last step; load: the 1-minute load average before the variant.",
              "", table_header(), *(table_row(v.name, records[v.name]) for v in done), "",
@@ -283,6 +286,19 @@ def write_results(stem, meta, matrix, records, checks):
     if failed:
         lines += ["", "Failed variants:", ""] + [f"* {v.name}: {records[v.name]['error']}" for v in failed]
     write_text_atomic(os.path.join(HERE, "results", f"{stem}.md"), "\n".join(lines) + "\n", comm)
+
+
+def previous_records(stem, meta):
+    """The rows of the results file, each with the commit and date of the run that made it."""
+    path = os.path.join(HERE, "results", f"{stem}.json")
+    if not os.path.exists(path):
+        return {}
+    with open(path) as f:
+        previous = json.load(f)
+    if previous["n_circ"] != meta["n_circ"] or previous["strip_knobs"] != meta["strip_knobs"]:
+        raise SystemExit(f"--update: {path} holds another matrix (n_circ, strip_knobs)")
+    return {name: {"commit": previous["commit"], "date": previous["date"], **{k: v for k, v in record.items() if k != "scene"}}
+            for name, record in previous["variants"].items()}
 
 
 def main():
@@ -294,6 +310,8 @@ def main():
                         help="remove [solver] and the contact penalty and smoothing from the scenes")
     parser.add_argument("--out", default=os.path.join("out", "planning_matrix"), help="output folder, one per variant")
     parser.add_argument("--list", action="store_true", help="name the variants and exit")
+    parser.add_argument("--update", action="store_true",
+                        help="with --only: keep the other variants' rows of the results file (each row keeps its commit)")
     parser.add_argument("--verbose", action="store_true", help="print the solver's messages")
     args = parser.parse_args()
     if args.list:
@@ -324,12 +342,13 @@ def main():
               + ("knobs stripped" if args.strip_knobs else "scenes as shipped"), flush=True)
         print(table_header(), flush=True)
 
-    records = {}
+    records = previous_records(stem, meta) if args.update else {}
+    matrix = [v for v in variants() if v.name in records or v in matrix] if args.update else matrix
     start = time.perf_counter()
-    for variant in matrix:
+    for variant in (v for v in matrix if not args.only or v.name in args.only):
         data, changed = scene_data(variant, bases[variant.scene], args.n_circ)
-        records[variant.name] = {"change": changed, **run_variant(variant, data, os.path.join(args.out, variant.name),
-                                                                   args.verbose)}
+        records[variant.name] = {"change": changed, "commit": meta["commit"], "date": meta["date"],
+                                 **run_variant(variant, data, os.path.join(args.out, variant.name), args.verbose)}
         if comm.rank == 0:
             print(table_row(variant.name, records[variant.name]), flush=True)
         write_results(stem, meta, matrix, records, series_checks(matrix, records))
