@@ -47,7 +47,6 @@ import datetime
 import json
 import os
 import re
-import subprocess
 import time
 import tomllib
 
@@ -58,6 +57,7 @@ from eyeball_fenicsx.errors import ConvergenceError, SceneError
 from eyeball_fenicsx.output import write_json_atomic, write_text_atomic
 from eyeball_fenicsx.scenefile import load_scene
 from eyeball_fenicsx.sweep import set_parameter
+from provenance import COMMIT_AT_START, hardware
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -246,23 +246,6 @@ def check_line(check):
             f" [{len(check['points'])} of {check['variants']} converged{': ' + along if along else ''}]")
 
 
-def hardware():
-    cpu = "unknown"
-    with open("/proc/cpuinfo") as f:
-        cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    # `nproc` inside a rank counts the cores mpirun bound it to; --all counts the machine's
-    nproc = int(subprocess.run(["nproc", "--all"], capture_output=True, text=True).stdout.strip() or 0)
-    return {"nproc": nproc, "cores_per_rank": len(os.sched_getaffinity(0)), "cpu": cpu, "ranks": comm.size}
-
-
-def commit():
-    git = ["git", "-C", HERE]
-    head = subprocess.run([*git, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
-    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                           text=True).stdout.strip()
-    return head + ("-dirty" if dirty else "")
-
-
 def write_results(stem, meta, matrix, records, checks):
     """planning_matrix.json and .md (collective: every rank calls, rank 0 writes)."""
     done = [v for v in matrix if v.name in records]
@@ -274,7 +257,7 @@ def write_results(stem, meta, matrix, records, checks):
     lines = [f"# Planning matrix: {len(done)} variants, default solver settings",
              "",
              f"`benchmarks/planning_matrix.py`, n_circ {meta['n_circ']}, {knobs}; {meta['ranks']} ranks on "
-             f"{meta['nproc']} cores ({meta['cpu']}); rows from " + "; ".join(
+             f"{meta['cores']} cores ({meta['cpu']}); rows from " + "; ".join(
                  f"commit {c} ({d}): {', '.join(v.name for v in done if records[v.name].get('commit', meta['commit']) == c)}"
                  for c, d in sorted({(records[v.name].get("commit", meta["commit"]), records[v.name].get("date", meta["date"]))
                                      for v in done}, key=lambda cd: cd[1])) + ".",
@@ -332,10 +315,9 @@ def main():
             bases[scene] = tomllib.load(f)
         if args.strip_knobs:
             stripped.update(f"{scene}: {key}" for key in strip_knobs(bases[scene]))
-    meta = {"benchmark": "planning_matrix", "commit": commit() if comm.rank == 0 else None, **hardware(),
+    meta = {"benchmark": "planning_matrix", "commit": COMMIT_AT_START, **hardware(), "ranks": comm.size,
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             "n_circ": args.n_circ, "strip_knobs": args.strip_knobs, "knobs_stripped": sorted(stripped)}
-    meta["commit"] = comm.bcast(meta["commit"], root=0)
     stem = "planning_matrix_strip_knobs" if args.strip_knobs else "planning_matrix"
     if comm.rank == 0:
         print(f"planning matrix: {len(matrix)} variants, n_circ {args.n_circ}, {comm.size} ranks, "

@@ -45,7 +45,7 @@ from mpi4py import MPI
 from eyeball_fenicsx.analytic import wall_volume_change
 from eyeball_fenicsx.cavity import Injection
 from eyeball_fenicsx.eye import eye_section_png, stress_section_png
-from eyeball_fenicsx.measures import EyeMeasures
+from eyeball_fenicsx.measures import MMHG_PER_MPA, EyeMeasures
 from eyeball_fenicsx.scene import Step
 from eyeball_fenicsx.scenefile import load_scene
 from meshes.eye import scleral_wall
@@ -80,8 +80,7 @@ iop_rise_min = np.min(np.diff(iop[:4]) / np.diff(injected[:4]))
 with open(os.path.join(here, "eye_at_rest.toml"), "rb") as table:
     geometry = {k: v for k, v in tomllib.load(table)["mesh"].items() if k not in ("builder", "n_circ")}
 materials = {tissue: law.c for tissue, law in scene.materials.items() if hasattr(law, "c")}
-mmHg = 1 / 7500.62  # MPa
-estimated_volume = wall_volume_change(iop[0] * mmHg, iop[3] * mmHg, *scleral_wall(**geometry), materials)
+estimated_volume = wall_volume_change(iop[0] / MMHG_PER_MPA, iop[3] / MMHG_PER_MPA, *scleral_wall(**geometry), materials)
 rigidity_estimate = np.log10(iop[3] / iop[0]) / estimated_volume
 rigidity_error = rigidity / rigidity_estimate - 1
 # consistency: the first step prescribes the IOP (the cavity is filled to it), so this reads it back

@@ -33,6 +33,7 @@ import numpy as np
 from mpi4py import MPI
 
 import eyeball_fenicsx as ef
+from eyeball_fenicsx.analytic import hertz_layer_force
 from eyeball_fenicsx.contact import RigidContact
 from eyeball_fenicsx.mesh import built_mesh
 from meshes.block import build_block
@@ -107,15 +108,7 @@ summary = scene.run(os.environ.get("DEMO_OUT"))
 
 # +
 depth, force, penetration = np.array(curve).T
-
-
-def hertz_layer(depth):
-    """Hertz's force on the layer of depth L (a = (R depth)^1/2 at each depth)."""
-    chi = np.sqrt(R * depth) / L
-    return 16 / 3 * mu * np.sqrt(R) * depth**1.5 * (1 + 0.884 * chi + 0.781 * chi**2 + 0.386 * chi**3 + 0.0048 * chi**4)
-
-
-hertz = hertz_layer(depth)
+hertz = hertz_layer_force(mu, R, depth, L)
 error = abs(force[-1] - hertz[-1]) / hertz[-1]
 if MPI.COMM_WORLD.rank == 0:
     print(f"{'depth':>8} {'force':>9} {'Hertz, layer':>12} {'ratio':>7} {'penetration/d':>14}")
@@ -131,7 +124,7 @@ if MPI.COMM_WORLD.rank == 0:
     import matplotlib.pyplot as plt
     fine = np.linspace(0.0, d, 100)
     fig, ax = plt.subplots(figsize=(5, 3.5))
-    ax.plot(fine, hertz_layer(fine), "k-", label="Hertz, $16/3\\,\\mu R^{1/2} d^{3/2}$, finite depth")
+    ax.plot(fine, hertz_layer_force(mu, R, fine, L), "k-", label="Hertz, $16/3\\,\\mu R^{1/2} d^{3/2}$, finite depth")
     ax.plot(depth, force, "o", label="eyeball-fenicsx (Q1/P0, augmented penalty contact)")
     ax.set_xlabel("indentation depth d (mm)")
     ax.set_ylabel("force F (N)")

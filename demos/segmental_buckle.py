@@ -57,10 +57,15 @@ indentation = final["eye"]["buckle_height_mm"] - before["eye"]["buckle_height_mm
 # are pulled out, the tire is squeezed), so the indentation is below this bound.
 
 # +
+def pushed_in(suture):
+    """s / (e . r) for the string from its bite (first point) to the tire (second point)."""
+    e = (suture.second_point - suture.first_point) / np.linalg.norm(suture.second_point - suture.first_point)
+    r = suture.second_point / np.linalg.norm(suture.second_point)  # the sclera's centre is the origin
+    return suture.shortening / abs(e @ r)
+
+
 strings = [f for f in scene.features if isinstance(f, Suture)]
-kinematic = sum(f.share * f.shortening / abs(np.dot(f.second_point - f.first_point, f.second_point))
-                * np.linalg.norm(f.second_point - f.first_point) * np.linalg.norm(f.second_point)
-                for f in strings) / sum(f.share for f in strings)
+kinematic = sum(f.share * pushed_in(f) for f in strings) / sum(f.share for f in strings)
 indentation_ratio = indentation / kinematic
 # -
 

@@ -72,3 +72,13 @@ def wall_volume_change(P0, P1, angles, layers, materials):
     walls = [[(A, B, materials[tissue]) for A, B, tissue in wall] for wall in layers]
     k = np.array([[layered_sphere_growth(P, wall) for wall in walls] for P in (P0, P1)])
     return 2 * np.pi / 3 * np.trapz((k[1] - k[0]) * np.sin(angles), angles)
+
+
+def hertz_layer_force(mu, R, depth, L):
+    """Force of a rigid sphere of radius R pressed ``depth`` into an incompressible layer of
+    shear modulus mu and depth L on a frictionless base: Hertz's half-space force
+    16/3 mu R^1/2 d^3/2 (Johnson 1985, eq. 4.23, nu = 1/2) times the finite-depth factor
+    1 + 0.884 chi + 0.781 chi^2 + 0.386 chi^3 + 0.0048 chi^4, chi = a / L with a = (R d)^1/2
+    (Dimitriadis et al., Biophys. J. 82 (2002) 2798, eq. 11, non-bonded, nu = 1/2)."""
+    chi = np.sqrt(R * depth) / L
+    return 16 / 3 * mu * np.sqrt(R) * depth**1.5 * (1 + 0.884 * chi + 0.781 * chi**2 + 0.386 * chi**3 + 0.0048 * chi**4)

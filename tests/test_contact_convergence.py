@@ -22,7 +22,7 @@ import ufl
 from mpi4py import MPI
 
 import eyeball_fenicsx as ef
-from eyeball_fenicsx.analytic import uniaxial_nominal_stress
+from eyeball_fenicsx.analytic import hertz_layer_force, uniaxial_nominal_stress
 from eyeball_fenicsx.buckle import BandTightening
 from eyeball_fenicsx.contact import ContactPair, RigidContact
 from eyeball_fenicsx.mesh import built_mesh
@@ -167,9 +167,7 @@ def test_hertz_force_against_the_closed_form(hertz):
     eq. 11, non-bonded, nu = 1/2): 4.6 % here. Within 2 %: the discretization stiffens (5 elements
     across 1.3 a, coarse far ones), the block's free sides (the correction is for an infinitely
     wide layer) soften; the prototype: +1.0 % (7 + 7 elements: -0.7 %; 30 a deep: +0.5 %)."""
-    chi = 1 / 20
-    layer = 1 + 0.884 * chi + 0.781 * chi**2 + 0.386 * chi**3 + 0.0048 * chi**4
-    closed_form = 16 / 3 * (2 * C10) * np.sqrt(RADIUS) * DEPTH**1.5 * layer
+    closed_form = hertz_layer_force(2 * C10, RADIUS, DEPTH, L=20 * np.sqrt(RADIUS * DEPTH))  # chi = 1 / 20
     assert hertz[1.0] == pytest.approx(closed_form, rel=0.02)
 
 

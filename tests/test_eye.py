@@ -8,11 +8,11 @@ from mpi4py import MPI
 
 from conftest import REPO
 from eyeball_fenicsx.analytic import layered_sphere_growth, wall_volume_change
+from eyeball_fenicsx.measures import MMHG_PER_MPA
 from eyeball_fenicsx.scenefile import load_scene
 from meshes.eye import scleral_wall
 
 SCENE = os.path.join(REPO, "demos", "eye_at_rest.toml")
-MMHG = 1 / 7500.62  # MPa
 
 
 def at_rest(comm):
@@ -43,7 +43,7 @@ def test_eye_at_rest_against_laplace_and_on_one_and_two_ranks():
     # the limbus' kink and the nerve's pole (3 % of the solid angle) are not a sphere, and the 16
     # sectors put the facets up to 1.9 % of R inside it (compliance goes as R^4) (measured -3.9 %).
     # Both cavities are filled to the same pressure, so the lens-zonule diaphragm is unloaded.
-    estimate = wall_volume_change(0.0, eye["iop_mmHg"] * MMHG, angles, layers, materials)
+    estimate = wall_volume_change(0.0, eye["iop_mmHg"] / MMHG_PER_MPA, angles, layers, materials)
     assert vitreous["volume"] - vitreous["initial_volume"] == pytest.approx(estimate, rel=0.10)
     # The largest von Mises stress in the sclera: at its thinnest (the equator), equibiaxial
     # tension, sigma_tt - sigma_rr = 2 c10 (lambda^2 - lambda^-4) at the hoop stretch lambda of
@@ -52,7 +52,7 @@ def test_eye_at_rest_against_laplace_and_on_one_and_two_ranks():
     # (from 0.032 to 0.029 MPa), and the element midpoints sample it at 1/4 and 3/4 of the
     # thickness; the limbus' kink is not a sphere (measured -3.1 %).
     thinnest = int(np.argmin([shell[-1][1] - shell[-1][0] for shell in layers]))
-    k = layered_sphere_growth(eye["iop_mmHg"] * MMHG, [(A, B, materials[t]) for A, B, t in layers[thinnest]])
+    k = layered_sphere_growth(eye["iop_mmHg"] / MMHG_PER_MPA, [(A, B, materials[t]) for A, B, t in layers[thinnest]])
     A, B, _ = layers[thinnest][-1]
     mid = (A + B) / 2
     stretch = (1 + k / mid**3) ** (1 / 3)
@@ -61,7 +61,7 @@ def test_eye_at_rest_against_laplace_and_on_one_and_two_ranks():
     # consistency: the first step prescribes the IOP (each cavity is filled to 15 mmHg), so these
     # read it back
     assert eye["iop_mmHg"] == pytest.approx(15.0, rel=1e-3)
-    assert together["cavities"]["aqueous"]["pressure"] == pytest.approx(15.0 * MMHG, rel=1e-3)
+    assert together["cavities"]["aqueous"]["pressure"] == pytest.approx(15.0 / MMHG_PER_MPA, rel=1e-3)
     # consistency: the same on one rank, to the solver's tolerance
     for key in ("axial_length_mm", "iop_mmHg"):
         assert alone["eye"][key] == pytest.approx(eye[key], rel=1e-8)
