@@ -37,7 +37,6 @@
 # +
 import os
 
-import tomllib
 
 import numpy as np
 from mpi4py import MPI
@@ -77,10 +76,8 @@ axial = np.array([e["axial_length_mm"] for e in eye])
 # the IOP rises with every injection (the smallest rise per microlitre, mmHg)
 iop_rise_min = np.min(np.diff(iop[:4]) / np.diff(injected[:4]))
 # the estimate (above) over the model's own pressures, its sclera and geometry
-with open(os.path.join(here, "eye_at_rest.toml"), "rb") as table:
-    geometry = {k: v for k, v in tomllib.load(table)["mesh"].items() if k not in ("builder", "n_circ")}
 materials = {tissue: law.c for tissue, law in scene.materials.items() if hasattr(law, "c")}
-estimated_volume = wall_volume_change(iop[0] / MMHG_PER_MPA, iop[3] / MMHG_PER_MPA, *scleral_wall(**geometry), materials)
+estimated_volume = wall_volume_change(iop[0] / MMHG_PER_MPA, iop[3] / MMHG_PER_MPA, *scleral_wall(**scene.mesh.parameters), materials)
 rigidity_estimate = np.log10(iop[3] / iop[0]) / estimated_volume
 rigidity_error = rigidity / rigidity_estimate - 1
 # consistency: the first step prescribes the IOP (the cavity is filled to it), so this reads it back

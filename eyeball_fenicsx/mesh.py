@@ -39,6 +39,8 @@ class MeshData:
         regions: volume physical-group name -> tag (same on every rank).
         surfaces: surface physical-group name -> tag (same on every rank).
         source: file path or builder name, for error messages.
+        parameters: the builder's parameters, as given (empty for a mesh file): what an
+            estimate of the geometry needs (``meshes.eye.scleral_wall``).
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -47,6 +49,7 @@ class MeshData:
     regions: dict[str, int]
     surfaces: dict[str, int]
     source: str
+    parameters: dict = dataclasses.field(default_factory=dict)
 
     def facets(self, name):
         """Local indices of the facets of a named surface (ghosts included).
@@ -344,7 +347,9 @@ def built_mesh(build, comm=MPI.COMM_WORLD, **options):
         message = comm.bcast(message, root=0)
         if message:
             raise SceneError(message)
-        return mesh_from_gmsh_model(gmsh.model, comm, source)
+        data = mesh_from_gmsh_model(gmsh.model, comm, source)
+        data.parameters = dict(options)
+        return data
     finally:
         if comm.rank == 0:
             gmsh.finalize()

@@ -1,6 +1,5 @@
 """The eye model at rest against Laplace's law for its wall, and the same answer on any ranks."""
 import os
-import tomllib
 
 import numpy as np
 import pytest
@@ -16,26 +15,20 @@ SCENE = os.path.join(REPO, "demos", "eye_at_rest.toml")
 
 
 def at_rest(comm):
+    """The scene's last step, its tissues' constants, and its vitreous' wall as the mesh builds
+    it (``meshes.eye.scleral_wall``, from the scene's own mesh parameters)."""
     scene = load_scene(SCENE, comm, overrides={"mesh.n_circ": 16})
     scene.log = lambda message: None
     materials = {tissue: law.c for tissue, law in scene.materials.items() if hasattr(law, "c")}
-    return scene.run()["steps"][-1], materials
-
-
-def wall():
-    """The vitreous' wall as the mesh builds it (``meshes.eye.scleral_wall``) for the scene's geometry."""
-    with open(SCENE, "rb") as table:
-        geometry = {k: v for k, v in tomllib.load(table)["mesh"].items() if k not in ("builder", "n_circ")}
-    return scleral_wall(**geometry)
+    return scene.run()["steps"][-1], materials, scleral_wall(**scene.mesh.parameters)
 
 
 def test_eye_at_rest_against_laplace_and_on_one_and_two_ranks():
-    (together, materials), (alone, _) = at_rest(MPI.COMM_WORLD), at_rest(MPI.COMM_SELF)
+    (together, materials, (angles, layers)), (alone, _, _) = at_rest(MPI.COMM_WORLD), at_rest(MPI.COMM_SELF)
     eye, vitreous = together["eye"], together["cavities"]["vitreous"]
     # the vitreous cavity of the model holds 5.2 mL unloaded (in-vivo MRI of emmetropic
     # eyes: 5.41 +- 0.32 mL, Feng et al. 2011)
     assert 4.0e3 < vitreous["initial_volume"] < 6.0e3
-    angles, layers = wall()
     # Filling to the IOP from the unloaded mesh: the volume that the wall, direction by direction
     # a thick sphere of its layers, takes at 15 mmHg (Laplace's law with the neo-Hookean thick
     # sphere, Ogden 1984 sec. 5.2.2; exact for a closed sphere in linear membrane theory, see
