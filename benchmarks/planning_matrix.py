@@ -43,7 +43,6 @@ variant, with the commit, the hardware, the ranks and the date.
 import argparse
 import copy
 import dataclasses
-import datetime
 import json
 import os
 import re
@@ -57,7 +56,7 @@ from eyeball_fenicsx.errors import ConvergenceError, SceneError
 from eyeball_fenicsx.output import write_json_atomic, write_text_atomic
 from eyeball_fenicsx.scenefile import load_scene
 from eyeball_fenicsx.sweep import set_parameter
-from provenance import COMMIT_AT_START, hardware
+from provenance import machine_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -315,9 +314,8 @@ def main():
             bases[scene] = tomllib.load(f)
         if args.strip_knobs:
             stripped.update(f"{scene}: {key}" for key in strip_knobs(bases[scene]))
-    meta = {"benchmark": "planning_matrix", "commit": COMMIT_AT_START, **hardware(), "ranks": comm.size,
-            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "n_circ": args.n_circ, "strip_knobs": args.strip_knobs, "knobs_stripped": sorted(stripped)}
+    meta = {"benchmark": "planning_matrix", **machine_record(ranks=comm.size, n_circ=args.n_circ, strip_knobs=args.strip_knobs,
+                                                              knobs_stripped=sorted(stripped))}
     stem = "planning_matrix_strip_knobs" if args.strip_knobs else "planning_matrix"
     if comm.rank == 0:
         print(f"planning matrix: {len(matrix)} variants, n_circ {args.n_circ}, {comm.size} ranks, "

@@ -35,8 +35,13 @@ def hardware():
 COMMIT_AT_START = commit()
 
 
-def run_record(comm, repeats, **extra):
-    """The record of this run; ``extra`` adds the benchmark's own notes (settings, caveats)."""
+def machine_record(**extra):
+    """The commit, the date and the hardware; ``extra`` adds the benchmark's own notes (settings,
+    caveats). Not collective: for a benchmark that starts its runs itself."""
     return {"commit": COMMIT_AT_START, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            **hardware(), "ranks": comm.size, "repeats": repeats,
-            "load_average_1min_at_end": os.getloadavg()[0], **extra}
+            **hardware(), **extra}
+
+
+def run_record(comm, repeats, **extra):
+    """The record of this run under MPI: ``machine_record`` with the ranks, the repeats and the load."""
+    return machine_record(ranks=comm.size, repeats=repeats, load_average_1min_at_end=os.getloadavg()[0], **extra)

@@ -12,7 +12,6 @@ contact force of every step is compared with the one-rank run:
 time, and whether the run converged. About 12 minutes on two cores for the default eye.
 """
 import argparse
-import datetime
 import json
 import os
 import subprocess
@@ -23,6 +22,7 @@ import tomllib
 import tomli_w
 
 import provenance
+from eyeball_fenicsx.sweep import set_parameter
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
@@ -35,7 +35,7 @@ def run(scene, ranks, n_circ, out):
     """Run the scene with n_circ on ``ranks`` ranks; (summary or None, wall seconds, error)."""
     with open(SCENES[scene], "rb") as f:
         data = tomllib.load(f)
-    data["mesh"]["n_circ"] = n_circ
+    set_parameter(data, "mesh.n_circ", n_circ)
     os.makedirs(out, exist_ok=True)
     path = os.path.join(out, "scene.toml")
     with open(path, "wb") as f:
@@ -81,8 +81,7 @@ def main():
     parser.add_argument("--out", default=os.path.join("out", "rank_agreement"))
     args = parser.parse_args()
     results = {"benchmark": "rank_agreement", "n_circ": args.n_circ,
-               "run": {"commit": provenance.COMMIT_AT_START, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(
-                   timespec="seconds"), **provenance.hardware(), "load_average_1min_at_start": os.getloadavg()[0]},
+               "run": provenance.machine_record(load_average_1min_at_start=os.getloadavg()[0]),
                "scenes": {}}
     rows = []
     for scene in SCENES:

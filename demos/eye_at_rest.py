@@ -37,7 +37,6 @@
 # +
 import os
 
-
 import numpy as np
 from mpi4py import MPI
 
