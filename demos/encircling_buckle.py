@@ -70,12 +70,11 @@ hoop_error = abs(held[1] - 2 * hoop_tension) / (2 * hoop_tension)
 #
 # The detachment is centred under the band. Where the buckle pushes the choroid against the
 # retina, the retina-choroid contact carries it. Contact keeps the retina out of the choroid to
-# the augmented Lagrangian's tolerance: it stops when the multipliers change by less than
-# AUGMENT_TOLERANCE = 1e-5 (relative), which leaves a penetration of about 1e-5 p / alpha, under
-# 1e-7 mm for contact pressures p of the IOP's order (0.003 MPa) and the pair's penalty alpha
-# (0.55 MPa/mm on the coarse eye): the penetration the measures read beyond their own 0.01 mm
-# resolution (`retina_penetration_max_mm`) must stay below 1e-6 mm, and the contact must carry
-# some retina nodes. A retina through the choroid is not attached: the part of the detachment
+# the augmented Lagrangian's tolerance: it stops when no multiplier update would move its node by
+# more than AUGMENT_DEPTH = 1e-4 of the element's thickness (about 1e-5 mm on the retina), so
+# the penetration the measures read beyond their own 0.01 mm resolution
+# (`retina_penetration_max_mm`) must stay below 1e-6 mm, and the contact must carry some retina
+# nodes. A retina through the choroid is not attached: the part of the detachment
 # left open after the operation counts the detached area (gap above 0.01 mm) and the penetrated.
 # No published figure or closed form gives that fraction for this model; that the operation
 # closes part of it is a consistency check only.

@@ -17,7 +17,7 @@
 # $\alpha_h (\nabla g \nabla g^T + g \nabla\nabla g)$, whose second term is the turning of
 # the sphere's normal. An augmented Lagrangian (Uzawa's update of a multiplier per node)
 # then removes the penetration, so the answer does not depend on the penalty. The default
-# penalty is 30 times the stiffness $E/h$ of the surface
+# penalty is 3 times the stiffness $E/h$ of the surface
 # layer of elements (`eyeball_fenicsx/contact/policy.py`), nothing to tune.
 #
 # We model a quarter of the block (symmetry planes $x = 0$, $y = 0$; the sphere's centre

@@ -42,9 +42,9 @@ With a detachment (the retina's outer surface "retina_outer" and the choroid's i
 * ``retina_penetration_max_mm``: how far the retina has passed through the choroid beyond
   ``PENETRATION_TOLERANCE``: max(0, -min gap - PENETRATION_TOLERANCE) over the retina's nodes.
   Contact with the choroid keeps the gap at zero to far less than that (the augmented
-  Lagrangian leaves a penetration of AUGMENT_TOLERANCE times the contact pressure over the
-  penalty: about 1e-7 mm for the eye's pressures and penalty), so anything above 0 is a
-  failure to report (contact that did not act, or a mesh too coarse for it), not attachment.
+  Lagrangian stops when its updates move no node by more than AUGMENT_DEPTH = 1e-4 of its
+  element's thickness), so anything above 0 is a failure to report (contact that did not
+  act, or a mesh too coarse for it), not attachment.
 * ``penetrated_area_mm2``: the reference area of "retina_outer" where the gap is below
   ``-PENETRATION_TOLERANCE`` (as ``detached_area_mm2``). A retina through the choroid is not
   attached: the attached area is the detachment's area less the detached and the penetrated.

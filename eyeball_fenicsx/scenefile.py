@@ -229,11 +229,9 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
 
     solver_table = Table(data.get("solver", {}), f"{path}: [solver]",
                           {"increments", "max_cutbacks", "growth", "predictor", "element"})
-    settings = SolverSettings(
-        increments=solver_table.get("increments", "integer", 10),
-        max_cutbacks=solver_table.get("max_cutbacks", "integer", 10),
-        growth=solver_table.get("growth", "positive", 2.0),
-        predictor=solver_table.get("predictor", "bool", True))
+    given = {key: solver_table.get(key, kind) for key, kind in
+             (("increments", "integer"), ("max_cutbacks", "integer"), ("growth", "positive"), ("predictor", "bool"))}
+    settings = SolverSettings(**{key: value for key, value in given.items() if value is not None})
     element = solver_table.get("element", "string")
 
     mesh = data.get("mesh")

@@ -39,7 +39,7 @@ class SolverSettings:
             multiplied the residual norm by at most this factor (0: a new tangent every step).
     """
 
-    increments: int = 10
+    increments: int = 2
     max_cutbacks: int = 10
     growth: float = 2.0
     easy_iterations: int = 5

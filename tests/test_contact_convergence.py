@@ -25,12 +25,12 @@ import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import hertz_layer_force, uniaxial_nominal_stress
 from eyeball_fenicsx.buckle import BandTightening
 from eyeball_fenicsx.contact import ContactPair, RigidContact
+from eyeball_fenicsx.contact.policy import PENALTY_FACTOR
 from eyeball_fenicsx.mesh import built_mesh
 from meshes._discrete import add_hex_model, boundary_quads, hex_grid
 from meshes.ring_on_cylinder import build_ring_on_cylinder, ring_on_cylinder_geometry
 
 COMM = MPI.COMM_WORLD
-PENALTY_FACTOR = 30.0  # the default penalty is 30 E / h of the surface elements (contact.py, README)
 _SIDES = {"x0": "u-", "y0": "v-", "z0": "w-", "z1": "w+"}
 
 
@@ -131,7 +131,7 @@ def hertz():
     each penalty: quarter model (symmetry x0, y0, the sphere's centre over the edge x = y = 0),
     a block L = 20 a deep and wide, a = (R d)^1/2 the contact radius, on a roller base, 5 elements
     across 1.3 a and 5 growing ones to the far sides (1000 hexahedra). Returns {multiple of the
-    default penalty: final force of the full sphere}; the default is 30 E / h = 346 MPa/mm,
+    default penalty: final force of the full sphere}; the default is 3 E / h = 34.6 MPa/mm,
     E = 3 mu = 6 c10, h = 0.26 the depth of the top elements."""
     a = np.sqrt(RADIUS * DEPTH)
     L = 20 * a

@@ -14,9 +14,10 @@ node's multiplier takes Uzawa's update with its weighted gap,
     lambda_i <- <lambda_i - alpha_i g_i>_+,   g_i = sum_pts W N_i g / sum_pts W N_i
                                              (over the points that carry a pressure),
 
-and Newton runs again, until the multipliers change by less than AUGMENT_TOLERANCE
-(relative, area-weighted L2): the weighted gaps then vanish wherever the surfaces press,
-whatever the penalty. One constraint per slave node, as in mortar methods: one per Gauss
+and Newton runs again (with Aitken's relaxation of the updates), until no node's update,
+read as the penetration it would remove (|Delta lambda_i| / alpha_i), exceeds AUGMENT_DEPTH
+of the thickness of the element under it: the weighted gaps then vanish, to that depth,
+wherever the surfaces press, whatever the penalty. One constraint per slave node, as in mortar methods: one per Gauss
 point would be more constraints than the slave surface has nodes, and the pressure modes
 that move no node would never converge. Increments inside a step take one update each,
 without solving again (it starts the next increment closer).
@@ -41,7 +42,7 @@ from dolfinx import fem
 
 from ..feature import Feature
 from .law import pressure
-from .policy import ACTIVE_RANGE, AITKEN_BOUNDS, AUGMENT_TOLERANCE, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
+from .policy import ACTIVE_RANGE, AITKEN_BOUNDS, AUGMENT_DEPTH, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
 from .surface import check_penalty
 
 _ADD = PETSc.InsertMode.ADD_VALUES
@@ -175,7 +176,7 @@ class ContactFeature(Feature):
     def augment(self):
         """Uzawa's update of the nodal multipliers (module docstring; collective). Returns True
         if nothing is left to do: not this feature's step yet, an increment inside a step (one
-        update, no new solve), or multipliers that changed by less than AUGMENT_TOLERANCE;
+        update, no new solve), or updates that move no node by more than AUGMENT_DEPTH of its element;
         False if Newton must solve again."""
         if not self.active:
             return True
@@ -191,9 +192,8 @@ class ContactFeature(Feature):
         owned = seen & (np.arange(len(seen)) < self._num_owned)
         update = target - self.node_multiplier
         weighted = area * owned
-        sums = self.solid.comm.allreduce(np.array([np.sum(weighted * update**2), np.sum(weighted * target**2)]),
-                                         op=MPI.SUM)
-        if sums[0] <= AUGMENT_TOLERANCE**2 * sums[1] or self._passes >= MAX_AUGMENTATIONS:
+        shift = np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]
+        if self.solid.comm.allreduce(shift.max(initial=0.0), op=MPI.MAX) <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
             self._last_update = None
             return True
         # Aitken's relaxation of the increments (Irons and Tuck 1969; Kuettler and Wall,
@@ -277,5 +277,11 @@ class ContactFeature(Feature):
         self.node_multiplier = np.zeros(len(self._work.x.array))
         self._num_owned = solid.W.dofmap.index_map.size_local
         self.augmentations = 0
+        # a multiplier update of less than this moves its node's surface by less than
+        # AUGMENT_DEPTH of the element under it (the penalty's nodal mean, times that depth)
+        every = np.arange(len(self.weight))
+        area = self._nodal_sums(every, self.weight)
+        settled = AUGMENT_DEPTH * self._nodal_sums(every, self.weight * self.alpha * self.thickness)
+        self._settled_change = np.divide(settled, area, out=np.full(len(area), np.inf), where=area > 0)
         totals = solid.comm.allreduce(np.array([self.weight.sum(), (self.weight * self.alpha).sum()]), op=MPI.SUM)
         self.mean_penalty = totals[1] / totals[0]

@@ -3,14 +3,16 @@
 Penalty: a contact pressure per unit penetration (MPa/mm) of PENALTY_FACTOR times the
 stiffness E/h of the two surface layers of elements in series (``surface.py``). The
 augmented Lagrangian (``base.py``) removes its penetration, so the factor only sets how
-many augmentations a step needs against how hard the Newton problem is.
+many augmentations a step needs (a softer penalty: more) against how hard contact onset is
+for Newton (a stiffer one: a point that closes in one step meets a pressure far above the
+loads). 3 is the fewest Newton iterations of the encircling operation among 1, 3, 10, 30.
 """
-PENALTY_FACTOR = 30.0
+PENALTY_FACTOR = 3.0
 SEARCH_FACTOR = 1.0  # candidate segments lie within this many segment sizes of a point (plus the last motion)
 ACTIVE_RANGE = 20.0  # a smoothed law acts up to gaps of this many smoothing lengths (force e^-20)
 OPEN_RANGE = 3.0  # ... and its stiffness is below 5 % of the penalty beyond this many: "open"
 ONSET_DEPTH = 0.05  # a point closing in one Newton step may go this deep (fraction of its element's thickness)
 ONSET_ITERATIONS = 8  # regula falsi steps to find where along a Newton step a gap reaches that depth
-AUGMENT_TOLERANCE = 1e-5  # the contact pressure field changes by less than this (relative, L2): augmented
+AUGMENT_DEPTH = 1e-4  # augmented: no multiplier update moves its node by more than this (fraction of its element's thickness)
 MAX_AUGMENTATIONS = 30  # Newton solves of one increment's end at most, for the augmentations
 AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
