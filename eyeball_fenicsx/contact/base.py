@@ -17,9 +17,9 @@ node's multiplier takes Uzawa's update with its weighted gap,
 and Newton runs again (with Aitken's relaxation of the updates), until no node's update,
 read as the penetration it would remove (|Delta lambda_i| / alpha_i), exceeds AUGMENT_DEPTH
 of the thickness of the element under it: the weighted gaps then vanish, to that depth,
-wherever the surfaces press, whatever the penalty. One constraint per slave node, as in mortar methods: one per Gauss
-point would be more constraints than the slave surface has nodes, and the pressure modes
-that move no node would never converge. Increments inside a step take one update each,
+wherever the surfaces press, whatever the penalty. One constraint per slave node, as in
+mortar methods: one per Gauss point would be more constraints than the slave surface has
+nodes, and the pressure modes that move no node would never converge. Increments inside a step take one update each,
 without solving again (it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
@@ -192,8 +192,8 @@ class ContactFeature(Feature):
         owned = seen & (np.arange(len(seen)) < self._num_owned)
         update = target - self.node_multiplier
         weighted = area * owned
-        shift = np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]
-        if self.solid.comm.allreduce(shift.max(initial=0.0), op=MPI.MAX) <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
+        unsettled = np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]
+        if self.solid.comm.allreduce(unsettled.max(initial=0.0), op=MPI.MAX) <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
             self._last_update = None
             return True
         # Aitken's relaxation of the increments (Irons and Tuck 1969; Kuettler and Wall,
