@@ -1,4 +1,4 @@
-"""The whole encircling buckling operation (demos/encircling_buckle.toml), timed by phase.
+"""The whole encircling buckling operation (demos/encircling_buckle_seed.toml), timed by phase.
 
 The default eye (n_circ = 40: 5070 hexahedra in the half model, about 10,000 in the whole
 eye, 25,742 unknowns) through the three steps, pressurize, tighten and suture. The scene is
@@ -37,7 +37,7 @@ from provenance import run_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle.toml")
+SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle_seed.toml")
 EVENTS = {"factorization": ("MatLUFactorNum", "MatCholFctrNum"), "jacobian": ("SNESJacobianEval",),
           "residual": ("SNESFunctionEval",), "solve (triangular)": ("MatSolve",)}
 ROUND_OFF = 1e-11  # residual norms (N) below this are round-off on the default eye

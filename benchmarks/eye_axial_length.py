@@ -1,7 +1,7 @@
 """Work-precision of the eye: the axial length change under the encircling buckle against a
 much finer mesh (issue 7, the eye's row of the work-precision study).
 
-The scene is demos/encircling_buckle.toml (Q1/P0) with the sutures tied at their rest length
+The scene is demos/encircling_buckle_seed.toml (Q1/P0) with the sutures tied at their rest length
 (so that the measure is the band's alone); the measure is the buckle's own effect, the axial length after "tighten" less the axial length after
 "pressurize", on meshes n_circ = 16, 24, 32, 40 (the default) and the reference n_circ given
 by ``--reference`` (default 56). ``wall_s`` is ``Scene.run`` (the slowest rank's), the mesh
@@ -30,7 +30,7 @@ from provenance import run_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle.toml")
+SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle_seed.toml")
 RESULTS = os.path.join(HERE, "results", "eye_axial_length.json")
 PROBLEM = "eye axial length"
 

@@ -1,7 +1,7 @@
 """Surgery without tuning: the surgeon's variants of the two buckle scenes, with default solver settings.
 
 A surgeon planning an operation changes what the operation does, not how the solver runs. Each
-variant below is one of the two shipped scenes, demos/encircling_buckle.toml and
+variant below is one of the two shipped scenes, demos/encircling_buckle_seed.toml and
 demos/segmental_buckle.toml, with one surgical parameter changed and nothing else:
 
 * the encircling band's circumference reduction, 2 to 14 mm (``band.0.reduction``; 8 as shipped);
@@ -60,7 +60,7 @@ from provenance import machine_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = {"encircling": os.path.join(HERE, "..", "demos", "encircling_buckle.toml"),
+SCENES = {"encircling": os.path.join(HERE, "..", "demos", "encircling_buckle_seed.toml"),
           "segmental": os.path.join(HERE, "..", "demos", "segmental_buckle.toml")}
 DRAINED_MM3 = 100.0  # from the half model's vitreous: 0.2 mL from the whole eye
 PREDICTIONS = {"buckle_height_mm": ("buckle height (mm)", "{:.3f}"),

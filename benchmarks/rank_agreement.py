@@ -26,7 +26,7 @@ from eyeball_fenicsx.sweep import set_parameter
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-SCENES = {"encircling": os.path.join(REPO, "demos", "encircling_buckle.toml"),
+SCENES = {"encircling": os.path.join(REPO, "demos", "encircling_buckle_seed.toml"),
           "segmental": os.path.join(REPO, "demos", "segmental_buckle.toml")}
 FLOOR = 1e-9  # measures smaller than this (mm, mmHg, N) are compared absolutely
 

@@ -19,6 +19,21 @@ constraint) and through a pressure maximum under volume control.
 
 The seed's *previous algorithm* (``algorithm="previous"``, for comparison only): p = p(u)
 is eliminated, and the tangent gains the dense block (K / V_ini) V' V'^T over all wetted dofs.
+
+A retinal break (``break_into``): the subretinal space is a cavity of its own that
+communicates with the vitreous through the break until the buckle closes it. While the break
+is open the two are one liquid: the vitreous' pressure acts on both, and its law holds for the
+sum of their volumes (its border row and column take the subretinal wall's V' too); the
+subretinal unknown is idle (its row is p_s = 0). When the break closes, at the start of step
+``break_closes``, each keeps the liquid it holds: both laws restart from the current state
+(p_base = p, V_ref = V), the subretinal one with its own pressure unknown.
+
+Drainage (``Drainage``) removes a fraction of the liquid a cavity holds when its step starts,
+by volume: under the vitreous' pressure the floating retina has almost no stiffness of its own
+(a pressure drop of about 0.02 mmHg would carry it across a 0.3 mm gap), so lowering the
+subretinal pressure would snap it onto the choroid, while taking the liquid out moves it there
+smoothly. All of it cannot go: with the retina on the choroid everywhere the volume and the
+contact would fix the same motion.
 """
 import numpy as np
 import ufl
@@ -50,6 +65,9 @@ class LiquidCavity(Feature):
         pressurize: bring the cavity to ``initial_pressure`` in its step by filling it (the
             pressure is prescribed, the liquid fills what it takes); the liquid law then holds
             about the filled state. For a stress-free mesh of an eye that is at its IOP.
+
+    ``connect_break(host, closes)`` makes it a subretinal space that communicates with
+    ``host`` until step ``closes`` (None: open throughout).
     """
 
     section = "cavities"
@@ -93,6 +111,29 @@ class LiquidCavity(Feature):
         self.adds_to_jacobian = algorithm == "previous"
         self.factor = 0.0
         self.injections = []
+        self.host, self.guests, self.break_closes = None, [], None  # a retinal break, see connect_break
+        self.break_open = False
+        self.drainage = None  # a Drainage, if the surgeon drains this cavity
+        self.step_index = -1
+        self.p_base = None  # the pressure the liquid law restarts from (None: factor * p_ini)
+        self.injected_base = 0.0
+        self.filled_volume = 0.0
+
+    def connect_break(self, host, closes=None):
+        """Communicate with ``host`` (the vitreous) through a break until step ``closes``."""
+        if host is self or host.host is not None or self.guests:
+            raise SceneError(f"cavity {self.name!r}: break_into must name another cavity that has no break itself")
+        if "previous" in (self.algorithm, host.algorithm):
+            raise SceneError(f"cavity {self.name!r}: a break joins two cavities of the new algorithm (one pressure "
+                             "unknown each)")
+        if self.pressurize or self.dV_inj or self.p_ini:
+            raise SceneError(f"cavity {self.name!r}: with break_into it fills with {host.name!r}; give it no "
+                             "initial_pressure, injected_volume or pressurize")
+        if closes is not None and closes <= host.step:
+            raise SceneError(f"cavity {self.name!r}: break_closes must be a step after {host.name!r}'s (the break "
+                             "closes once the eye is at its pressure)")
+        self.host, self.break_closes, self.break_open = host, closes, True
+        host.guests.append(self)
 
     def setup(self, solid):
         self.solid = solid
@@ -106,9 +147,10 @@ class LiquidCavity(Feature):
         tags = tuple(solid.mesh_data.surfaces[s] for s in self.surfaces)
         volume = -ufl.inner(x, solid.current_normal_area()) / 3 * solid.ds(tags)
         self.volume_form = fem.form(volume)
-        self.dV_form = fem.form(ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W)))
+        self._dV = ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W))
+        self.dV_form = fem.form(self._dV)
         self.pressure = fem.Constant(msh, 0.0)
-        self._load = -self.pressure * ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W))
+        self.open = fem.Constant(msh, 1.0 if self.host is not None else 0.0)  # 1 while the break is open
         self.V_ini = self.V_ref = self.volume()
         if not self.V_ini > 0:
             raise SceneError(f"cavity {self.name!r}: the volume enclosed by {self.surface!r} is {self.V_ini:.4g}, "
@@ -119,32 +161,63 @@ class LiquidCavity(Feature):
         self.unknowns = np.zeros(1)
 
     def residual(self, solid):
-        return self._load
+        """The liquid's load -p V'; through an open break, the host's pressure."""
+        if self.host is None:
+            return -self.pressure * self._dV
+        return -(self.open * self.host.pressure + (1 - self.open) * self.pressure) * self._dV
 
     def set_load_factor(self, factor):
         self.factor = factor
 
     def begin_step(self, step_index):
+        self.step_index = step_index
         if self.pressurize and step_index == self.step:
             self.filling = True
         elif self.filling and step_index > self.step:  # filled: the liquid law from here on
             self.filling = False
-            self.V_ref = self.current_volume
+            self.V_ref = self.liquid_volume()
+            self.filled_volume = self.V_ref - self.V_ini - sum(g.V_ini for g in self.guests)
+        if self.drainage is not None and step_index == self.drainage.step:
+            self.drainage.volume = -self.drainage.fraction * self.current_volume
+        for guest in self.guests:  # the host decides, so that both restart from the same state
+            if guest.break_open and guest.break_closes is not None and step_index >= guest.break_closes:
+                guest.break_open = False
+                guest.open.value = 0.0
+                guest.unknowns[0] = self.unknowns[0]
+                guest._restart_law(self.unknowns[0])
+                self._restart_law(self.unknowns[0])
+
+    def _restart_law(self, pressure):
+        """The liquid law from the current state on: p = pressure at the liquid it holds now."""
+        self.p_base, self.injected_base = pressure, self.injected()
+        self.V_ref = self.liquid_volume()
+
+    def liquid_volume(self):
+        """The volume the liquid law sees: this cavity's, and its guests' through open breaks."""
+        return self.current_volume + sum(g.current_volume for g in self.guests if g.break_open)
+
+    @property
+    def prescribed(self):
+        """The pressure is prescribed (filling, or idle behind an open break)."""
+        return self.filling or self.break_open
 
     def volume(self):
         return self.solid.comm.allreduce(fem.assemble_scalar(self.volume_form), op=MPI.SUM)
 
     def injected(self):
         """Liquid volume added so far: this cavity's own, ramped in its step, and any
-        later ``Injection``."""
+        later ``Injection`` or ``Drainage``."""
         return self.factor * self.dV_inj + sum(i.factor * i.volume for i in self.injections)
 
     def law(self, V):
-        """Liquid pressure at volume V (at the current load factor); while filling, the
-        prescribed pressure."""
+        """Liquid pressure at volume V (at the current load factor); while filling or behind
+        an open break, the prescribed pressure."""
         if self.filling:
             return self.factor * self.p_ini
-        return self.factor * self.p_ini - self.K * (V - self.V_ref - self.injected()) / self.V_ref
+        if self.break_open:
+            return 0.0  # idle: the host's pressure acts on the walls
+        base = self.factor * self.p_ini if self.p_base is None else self.p_base
+        return base - self.K * (V - self.V_ref - self.injected() + self.injected_base) / self.V_ref
 
     def state_changed(self):
         self.current_volume = self.volume()
@@ -156,7 +229,7 @@ class LiquidCavity(Feature):
     def unknown_residuals(self):
         """dPi/dp = -(V - V_ref - dV_inj) - V_ref (p - p_ini) / K (scaled alike while filling)."""
         p = self.unknowns[0]
-        return [(self.law(self.current_volume) - p) * self.V_ref / self.K]
+        return [(self.law(self.liquid_volume()) - p) * self.V_ref / self.K]
 
     def _volume_gradient(self):
         """V' on the owned wetted dofs."""
@@ -167,10 +240,15 @@ class LiquidCavity(Feature):
         return self.dV.array_r[self.wetted]
 
     def border(self):
-        """(owned wetted dofs, column dR_u/dp, row dR_p/du, dR_p/dp)."""
-        gradient = -self._volume_gradient()
-        row = np.zeros_like(gradient) if self.filling else gradient
-        return [(self.wetted, gradient, row, -self.V_ref / self.K)]
+        """(owned wetted dofs, column dR_u/dp, row dR_p/du, dR_p/dp): through open breaks,
+        the guests' walls too (a dof on both walls appears twice; the entries add)."""
+        if self.break_open:  # idle: p_s = 0, and the host's pressure loads the walls
+            return [(self.wetted, np.zeros(len(self.wetted)), np.zeros(len(self.wetted)), -self.V_ref / self.K)]
+        walls = [self] + [g for g in self.guests if g.break_open]
+        dofs = np.concatenate([c.wetted for c in walls])
+        gradient = -np.concatenate([c._volume_gradient() for c in walls])
+        row = np.zeros_like(gradient) if self.prescribed else gradient
+        return [(dofs, gradient, row, -self.V_ref / self.K)]
 
     def coupling(self):
         if self.algorithm != "previous":
@@ -195,9 +273,41 @@ class LiquidCavity(Feature):
 
     def report(self):
         p = self.unknowns[0] if self.algorithm == "new" else self.law(self.current_volume)
-        filled = (self.current_volume if self.filling else self.V_ref) - self.V_ini
-        return {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini),
-                "injected_volume": float(filled + self.injected())}
+        if self.break_open:
+            p = self.host.unknowns[0]
+        filled = self.liquid_volume() - self.V_ini - sum(g.V_ini for g in self.guests) if self.filling else \
+            self.filled_volume
+        result = {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini)}
+        if self.host is None:
+            result["injected_volume"] = float(filled + self.injected())
+        else:
+            result["break"] = "open" if self.break_open else "closed"
+        if self.drainage is not None and self.step_index >= self.drainage.step:
+            result["drained_volume"] = float(-self.drainage.factor * self.drainage.volume)
+        return result
+
+
+class Drainage(Feature):
+    """The surgeon drains a cavity (the subretinal fluid, through a sclerotomy): over ``step``
+    the liquid it holds when the step starts leaves it, all but ``1 - fraction`` of it."""
+
+    def __init__(self, cavity: LiquidCavity, step, fraction=0.98):
+        if cavity.host is not None and (cavity.break_closes is None or step < cavity.break_closes):
+            raise SceneError(f"drainage of {cavity.name!r}: its break is still open in that step (draining it "
+                             f"would drain {cavity.host.name!r} too); close the break first (break_closes)")
+        if cavity.drainage is not None or (cavity.pressurize and step <= cavity.step):
+            raise SceneError(f"drainage of {cavity.name!r}: drain a cavity once, after it is filled")
+        if isinstance(fraction, bool) or not isinstance(fraction, (int, float)) or not 0 < fraction < 1:
+            raise SceneError(f"drainage of {cavity.name!r}: drain_fraction must be a number in (0, 1) (the "
+                             f"share of the liquid removed; all of it cannot go), got {fraction!r}")
+        self.name = f"{cavity.name} drainage"
+        self.step, self.factor, self.fraction = step, 0.0, float(fraction)
+        self.volume = 0.0  # the change, set when the step starts
+        cavity.drainage = self
+        cavity.injections.append(self)
+
+    def set_load_factor(self, factor):
+        self.factor = factor
 
 
 class Injection(Feature):
@@ -207,6 +317,9 @@ class Injection(Feature):
     def __init__(self, cavity: LiquidCavity, volume, step):
         if isinstance(volume, bool) or not isinstance(volume, (int, float)) or not np.isfinite(volume):
             raise SceneError(f"injection into {cavity.name!r}: volume must be a finite number, got {volume!r}")
+        if cavity.host is not None and (cavity.break_closes is None or step < cavity.break_closes):
+            raise SceneError(f"injection into {cavity.name!r}: its break is open in that step; inject into "
+                             f"{cavity.host.name!r}, or after the break closes")
         self.name = f"{cavity.name} injection {len(cavity.injections) + 1}"
         self.volume, self.step, self.factor = float(volume), step, 0.0
         cavity.injections.append(self)

@@ -1,9 +1,11 @@
 """Pictures of the eye model: its meridional section with the tissues coloured or its stress,
-and the eye measures over the steps of a run. Files appear atomically (output.py)."""
+the retina's gap from the choroid over a detachment, and the eye measures over the steps of a
+run. Files appear atomically (output.py)."""
 import numpy as np
 
 from dolfinx import cpp
 
+from .measures import DETACHED_GAP
 from .output import plot_curves, save_figure_atomic
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
@@ -119,6 +121,35 @@ def stress_section_png(solid, mises, path, title=None):
     axes.set_aspect("equal")
     axes.set_xlabel("x (mm)")
     axes.set_ylabel("z: optic axis (mm)")
+    if title:
+        axes.set_title(title)
+    figure.tight_layout()
+    save_figure_atomic(figure, path)
+    plt.close(figure)
+
+
+def retina_gap_png(measures, path, title=None):
+    """Map the retina-choroid gap (mm, as ``EyeMeasures`` last measured it) over the detached
+    retina, flattened: each node of "retina_outer" at its reference azimuth and polar angle
+    from the posterior pole. Collective; rank 0 writes the file (nothing without a detachment).
+    """
+    X, gap = measures.retina_gap_map()
+    if X is None:
+        return
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    polar = np.degrees(np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0)))
+    azimuth = np.degrees(np.arctan2(X[:, 1], X[:, 0]))
+    figure, axes = plt.subplots(figsize=(8, 4.5))
+    levels = np.linspace(min(gap.min(), 0.0), max(gap.max(), 1e-3), 21)
+    filled = axes.tricontourf(azimuth, polar, gap, levels=levels, cmap="viridis")
+    if gap.min() < DETACHED_GAP < gap.max():
+        axes.tricontour(azimuth, polar, gap, levels=[DETACHED_GAP], colors="white", linewidths=1.0)
+    figure.colorbar(filled, ax=axes, label=f"retina-choroid gap (mm); white: {DETACHED_GAP} mm, detached beyond")
+    axes.set_xlabel("azimuth (deg)")
+    axes.set_ylabel("polar angle from the posterior pole (deg)")
     if title:
         axes.set_title(title)
     figure.tight_layout()

@@ -2,8 +2,12 @@
 
 * ``axial_length_mm``: corneal apex to the posterior pole along the optic axis (the
   anterior corneal surface to the retina's inner surface, as optical biometry measures);
-  ``axial_length_change_mm`` from the reference state;
-* ``refraction_change_D``: the refractive change of that length change at -2.7 D per mm
+  ``axial_length_change_mm`` from the pre-operative eye, as the surgeon means it: the state
+  after the step in which the vitreous is brought to its pressure (``pressurize``), so 0 after
+  that step; before it (no pre-operative eye yet), from the unloaded mesh. The change from the
+  mesh is always there too, ``axial_length_change_from_mesh_mm`` (the inflation included);
+* ``refraction_change_D`` (and ``refraction_change_from_mesh_D``): the refractive change of
+  that length change at -2.7 D per mm
   (a 1 mm longer eye is about 2.7 D more myopic: Atchison & Smith, Optics of the Human
   Eye, 2000, ch. 17; schematic-eye values range from -2.5 to -3 D/mm);
 * ``iop_mmHg``: the vitreous pressure (1 MPa = 7500.62 mmHg);
@@ -48,6 +52,13 @@ With a detachment (the retina's outer surface "retina_outer" and the choroid's i
 * ``penetrated_area_mm2``: the reference area of "retina_outer" where the gap is below
   ``-PENETRATION_TOLERANCE`` (as ``detached_area_mm2``). A retina through the choroid is not
   attached: the attached area is the detachment's area less the detached and the penetrated.
+* ``reattached_fraction``: that attached area as a fraction of the initially detached area
+  (the reference area of "retina_outer"), 1 - (detached + penetrated) / initial.
+* ``subretinal_volume_mm3``: the volume between the two faces, -(1/3) integral of x . n over
+  both in the current configuration (n their outward normals; a cut plane through the origin
+  adds nothing, so a half model reports half of the eye's).
+
+The retina's gap map (``retina_gap_map``) feeds the picture ``retina_gap_<step>.png``.
 """
 import numpy as np
 import ufl
@@ -111,6 +122,10 @@ class EyeMeasures(Feature):
         self.solid = solid
         self.ends = [MaterialNode(solid, p, s) for p, s in zip(self.points, self.surfaces)]
         self.initial_length = np.linalg.norm(self.ends[0].reference - self.ends[1].reference)
+        self.preoperative_length = None  # the length after the vitreous' pressurize step
+        filled = self.vitreous is not None and self.vitreous.pressurize
+        self.preoperative_step = self.vitreous.step if filled else None
+        self.step_index = -1
         msh = solid.mesh_data.mesh
         self.mises = fem.Function(fem.FunctionSpace(msh, ("DG", 0)))
         self._mises_expr = None  # built on first use: the materials may still change in setup
@@ -150,6 +165,10 @@ class EyeMeasures(Feature):
                              subdomain_id=md.surfaces[self.retina], metadata={"quadrature_degree": 12})
             self._detached = fem.form(ufl.conditional(ufl.gt(self.gap[0], DETACHED_GAP), 1.0, 0.0) * ds)
             self._penetrated = fem.form(ufl.conditional(ufl.lt(self.gap[0], -PENETRATION_TOLERANCE), 1.0, 0.0) * ds)
+            x = solid.X + solid.u
+            faces = solid.ds((md.surfaces[self.retina], md.surfaces[self.choroid]))
+            self._subretinal_volume = fem.form(-ufl.inner(x, solid.current_normal_area()) / 3 * faces)
+            self.detachment_area = solid.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds)), op=MPI.SUM)
 
     def _surface_nodes(self, surface):
         """The owned nodes (blocks of V) of a surface, wherever its facets are (collective)."""
@@ -188,17 +207,41 @@ class EyeMeasures(Feature):
         self.gap.x.array[:] = 0.0
         self.gap.x.array.reshape(-1, 3)[self.retina_nodes, 0] = gap
         self.gap.x.scatter_forward()
+        self.retina_gap = gap
         depth = comm.allreduce(-gap.min() if len(gap) else -np.inf, op=MPI.MAX)
-        return {"retina_gap_max_mm": float(comm.allreduce(gap.max() if len(gap) else -np.inf, op=MPI.MAX)),
-                "detached_area_mm2": float(comm.allreduce(fem.assemble_scalar(self._detached), op=MPI.SUM)),
-                "retina_penetration_max_mm": float(max(depth - PENETRATION_TOLERANCE, 0.0)),
-                "penetrated_area_mm2": float(comm.allreduce(fem.assemble_scalar(self._penetrated), op=MPI.SUM))}
+        detached = comm.allreduce(fem.assemble_scalar(self._detached), op=MPI.SUM)
+        penetrated = comm.allreduce(fem.assemble_scalar(self._penetrated), op=MPI.SUM)
+        result = {"retina_gap_max_mm": float(comm.allreduce(gap.max() if len(gap) else -np.inf, op=MPI.MAX)),
+                  "detached_area_mm2": float(detached),
+                  "retina_penetration_max_mm": float(max(depth - PENETRATION_TOLERANCE, 0.0)),
+                  "penetrated_area_mm2": float(penetrated)}
+        result["reattached_fraction"] = float(1 - (detached + penetrated) / self.detachment_area)
+        result["subretinal_volume_mm3"] = float(comm.allreduce(fem.assemble_scalar(self._subretinal_volume), op=MPI.SUM))
+        return result
+
+    def retina_gap_map(self):
+        """Collective. On rank 0, (reference positions, gap) of the retina's nodes as last
+        measured; (None, None) elsewhere or without a detachment."""
+        if self.retina is None or not hasattr(self, "retina_gap"):
+            return None, None
+        gathered = self.solid.comm.gather((self.X[self.retina_nodes], self.retina_gap), root=0)
+        if self.solid.comm.rank != 0:
+            return None, None
+        return np.concatenate([g[0] for g in gathered]), np.concatenate([g[1] for g in gathered])
+
+    def begin_step(self, step_index):
+        self.step_index = step_index
 
     def report(self):
         length = float(np.linalg.norm(self.ends[0].position() - self.ends[1].position()))
-        change = length - self.initial_length
+        if self.step_index == self.preoperative_step:
+            self.preoperative_length = length
+        from_mesh = length - self.initial_length
+        after = self.preoperative_length is not None and self.step_index >= self.preoperative_step
+        change = length - self.preoperative_length if after else from_mesh
         result = {"axial_length_mm": length, "axial_length_change_mm": change,
-                  "refraction_change_D": DIOPTRES_PER_MM * change}
+                  "refraction_change_D": DIOPTRES_PER_MM * change, "axial_length_change_from_mesh_mm": from_mesh,
+                  "refraction_change_from_mesh_D": DIOPTRES_PER_MM * from_mesh}
         if self.vitreous is not None:
             result["iop_mmHg"] = self.vitreous.report()["pressure"] * MMHG_PER_MPA
         if self._mises_expr is None:

@@ -13,8 +13,9 @@ exactly the bare hyperelastic system.
 
 A scene with eye measures (an ``EyeMeasures`` feature: the ``[eye]`` table of a scene file)
 also draws, into the output folder, ``section_<step>.png`` after each step (the deformed
-meridional section coloured by von Mises stress) and ``eye_measures.png`` at the end (the
-scalar eye measures over the steps).
+meridional section coloured by von Mises stress), ``retina_gap_<step>.png`` with a detachment
+(the retina's gap from the choroid, flattened) and ``eye_measures.png`` at the end (the scalar
+eye measures over the steps).
 """
 import dataclasses
 import os
@@ -24,7 +25,7 @@ import time
 from mpi4py import MPI
 
 from .errors import ConvergenceError, SceneError
-from .eye import eye_measures_png, stress_section_png
+from .eye import eye_measures_png, retina_gap_png, stress_section_png
 from .formulation import MixedSolid
 from .loads import Dirichlet
 from .measures import EyeMeasures
@@ -108,10 +109,12 @@ class Scene:
                         fields.write(float(index + 1))
                 entry["increments"] = [dataclasses.asdict(i) for i in done]
                 entry.update(self.measure())
-                if eye:  # its stress is that of this state: measure() just updated it
-                    picture = os.path.join(out_dir, "section_" + re.sub(r"[^\w.-]+", "_", step.name) + ".png")
-                    stress_section_png(self.solid, eye.mises, picture,
+                if eye:  # its stress and gap are those of this state: measure() just updated them
+                    label = re.sub(r"[^\w.-]+", "_", step.name)
+                    stress_section_png(self.solid, eye.mises, os.path.join(out_dir, f"section_{label}.png"),
                                        title=f"{self.name}, step {step.name}: von Mises stress (MPa)")
+                    retina_gap_png(eye, os.path.join(out_dir, f"retina_gap_{label}.png"),
+                                   title=f"{self.name}, step {step.name}: the detached retina")
                 if out_dir:
                     summary["wall_s"] = time.perf_counter() - start
                     write_json_atomic(f"{out_dir}/summary.json", summary, comm)

@@ -14,7 +14,13 @@ Extensions beyond the contract (documented in README.md):
 * ``[[cavity]] algorithm = "new" | "previous"``, ``pressurize = true`` (fill the cavity to
   its ``initial_pressure`` in its step: the eye brought to its IOP) and ``surface`` as a list
   of surface groups (a liquid wetting several surfaces);
+* ``[[cavity]] break_into = "<cavity>"``, ``break_closes = "<step>"``: a subretinal space
+  that communicates with the vitreous through a retinal break until that step (one liquid,
+  one pressure; then each its own); ``drain = "<step>"``: the surgeon drains the cavity in
+  that step, removing ``drain_fraction`` (default 0.98) of the liquid it then holds;
 * ``[[injection]]`` (``cavity``, ``volume``, ``step``): liquid added or removed in a step;
+* ``tissues = "seed" | "calibrated"``: the eye's materials from a tissue set
+  (eyeball_fenicsx/tissues/), which the scene's own ``[materials.<region>]`` tables override;
 * ``[[contact]] smoothing`` (mm): the penalty law smoothed over that length (contact/law.py);
   ``symmetry`` (axes): the model's symmetry planes, where the master's normals lie in the plane;
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
@@ -41,7 +47,7 @@ import tomllib
 from mpi4py import MPI
 
 from .buckle import BandTightening
-from .cavity import Injection, LiquidCavity
+from .cavity import Drainage, Injection, LiquidCavity
 from .errors import SceneError
 from .loads import Dirichlet, NodalForce, Pressure
 from .measures import EyeMeasures
@@ -51,7 +57,23 @@ from .stepping import SolverSettings
 from .sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
-             "solver", "step", "injection", "suture", "band", "eye", "buckle_sutures"}
+             "solver", "step", "injection", "suture", "band", "eye", "buckle_sutures", "tissues"}
+TISSUE_SETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tissues")
+
+
+def tissue_set(name, path):
+    """The [materials.<region>] tables of the tissue set ``name`` (``tissues = "<name>"``:
+    eyeball_fenicsx/tissues/<name>.toml, each constant with its source), as {region: (table,
+    where)}; the scene's own [materials.<region>] tables replace or add to them."""
+    if name is None:
+        return {}
+    sets = sorted(f[:-5] for f in os.listdir(TISSUE_SETS) if f.endswith(".toml"))
+    if name not in sets:
+        raise SceneError(f"{path}: tissues = {name!r} is not a tissue set (sets: {sets})")
+    source = os.path.join(TISSUE_SETS, name + ".toml")
+    with open(source, "rb") as f:
+        materials = tomllib.load(f)["materials"]
+    return {region: (t, f"{source}: [materials.{region}]") for region, t in materials.items()}
 
 
 def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
@@ -83,16 +105,20 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
     if len(step_index) != len(steps):
         raise SceneError(f"{path}: [[step]] names must be unique, got {[s.name for s in steps]}")
 
-    def step_of(t):
-        name = t.get("step", "string", default=steps[0].name)
+    def step_of(t, key="step"):
+        name = t.get(key, "string", default=steps[0].name)
         if name not in step_index:
-            raise t.error(f"step {name!r} is not a [[step]] of the scene (steps: {list(step_index)})")
+            raise t.error(f"{key} {name!r} is not a [[step]] of the scene (steps: {list(step_index)})")
         return step_index[name]
 
-    if "materials" not in data or not isinstance(data["materials"], dict) or not data["materials"]:
+    tables = tissue_set(top.get("tissues", "string"), path)
+    if not isinstance(data.get("materials", {}), dict):
+        raise SceneError(f"{path}: materials must be tables [materials.<region>]")
+    tables.update({region: (t, f"{path}: [materials.{region}]") for region, t in data.get("materials", {}).items()})
+    if not tables:
         raise SceneError(f"{path}: no [materials.<region>] table: give one per volume group of the mesh")
-    materials = {region: material_table(Table(t, f"{path}: [materials.{region}]", t if isinstance(t, dict) else ()))
-                 for region, t in data["materials"].items()}  # keys are checked per model
+    materials = {region: material_table(Table(t, where, t if isinstance(t, dict) else ()))
+                 for region, (t, where) in tables.items()}  # keys are checked per model
 
     features, surfaces_used = [], []
     for t, where in table_array(data, "dirichlet", path):
@@ -117,10 +143,11 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
                                    point=t.get("point", "vector"), step=step_of(t)))
         if surface:
             surfaces_used.append((surface, where))
-    cavities = {}
+    cavities, cavity_tables = {}, []
     for t, where in table_array(data, "cavity", path):
         t = Table(t, where, {"name", "surface", "bulk_modulus", "initial_pressure", "injected_volume",
-                              "symmetry", "step", "algorithm", "pressurize"})
+                              "symmetry", "step", "algorithm", "pressurize", "break_into", "break_closes", "drain",
+                              "drain_fraction"})
         name_ = t.unique_name("cavity", cavities)
         surface = t.get("surface", "strings" if isinstance(t.data.get("surface"), list) else "string", required=True)
         arguments = (name_, surface, t.get("bulk_modulus", "positive", required=True),
@@ -134,12 +161,32 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
             raise t.error(str(error)) from None
         features.append(cavities[name_])
         surfaces_used.extend((name, where) for name in cavities[name_].surfaces)
+        cavity_tables.append((t, cavities[name_]))
+    for t, cavity in cavity_tables:  # breaks and drainage name other cavities and steps
+        host = t.get("break_into", "string")
+        if host is not None and host not in cavities:
+            raise t.error(f"break_into = {host!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
+        if t.has("break_closes") and host is None:
+            raise t.error("break_closes needs break_into (the cavity the break opens into)")
+        if t.has("drain_fraction") and not t.has("drain"):
+            raise t.error("drain_fraction needs drain (the step in which the cavity is drained)")
+        closes = step_of(t, "break_closes") if t.has("break_closes") else None
+        try:
+            if host is not None:
+                cavity.connect_break(cavities[host], closes)
+            if t.has("drain"):
+                features.append(Drainage(cavity, step_of(t, "drain"), t.get("drain_fraction", "number", 0.98)))
+        except SceneError as error:
+            raise t.error(str(error)) from None
     for t, where in table_array(data, "injection", path):
         t = Table(t, where, {"cavity", "volume", "step"})
         cavity = t.get("cavity", "string", required=True)
         if cavity not in cavities:
             raise t.error(f"cavity {cavity!r} is not a [[cavity]] of the scene (cavities: {sorted(cavities)})")
-        features.append(Injection(cavities[cavity], t.get("volume", "number", required=True), step=step_of(t)))
+        try:
+            features.append(Injection(cavities[cavity], t.get("volume", "number", required=True), step=step_of(t)))
+        except SceneError as error:  # the injection's own checks: a finite volume, a closed break
+            raise t.error(str(error)) from None
     sutures = set()  # names, unique: each is a key of "sutures" in summary.json
     for t, where in table_array(data, "suture", path):
         t = Table(t, where, {"name", "first", "second", "tension", "shortening", "stiffness", "first_surface",

@@ -30,17 +30,19 @@ DEMOS = {
     # their excursion (the solver's tolerance; not a number if the injection did nothing).
     "eye_at_rest.py": ({"EYE_N_CIRC": "16"}, [("iop_rise_min", (0.0, float("inf"))), ("rigidity_error", (-0.15, 0.15)),
                                               ("iop_readback_error", 0.01), ("injection_reversible", 1e-6)]),
-    # the encircling buckle's three steps on a coarse eye (EYE_N_CIRC=16, each rank alone: ~30 s):
+    # the encircling buckle's four steps on a coarse eye (EYE_N_CIRC=16, each rank alone: ~40 s):
     # contact and sutures hold the band, exactly along x and z (a consistency check: the contact
     # force is the summed slave residual), and along y to Laplace's law for its hoop tension (a
-    # physics check, 5 %: the band is also bent and pressed); consistency only, no outside reference:
-    # the operation closes part of the detachment (open_fraction < 1 counts the penetrated retina as
-    # open). The buckle brings the choroid onto the retina: the retina-choroid contact carries
-    # retina nodes and keeps the retina out of the choroid to the augmented Lagrangian's tolerance
-    # (1e-5 p / alpha < 1e-7 mm, the demo's argument) beyond the measures' 0.01 mm resolution.
+    # physics check, 5 %: the band is also bent and pressed). The drainage took 98 % of the
+    # subretinal fluid (its volume law: to the solver's tolerance), and reattached the retina: the
+    # area left open (detached or penetrated) at most a tenth of the detached area after
+    # "pressurize" (issue 16's aim; measured 4 %), with the retina-choroid contact carrying retina
+    # nodes and keeping the retina out of the choroid to the augmented Lagrangian's tolerance
+    # (the demo's argument) beyond the measures' 0.01 mm resolution.
     "encircling_buckle.py": ({"EYE_N_CIRC": "16", "DEMO_COMM": "self"},
-                             [("balance_error", 1e-6), ("hoop_error", 0.05), ("open_fraction", 1.0),
-                              ("retina_nodes", (0, float("inf"))), ("retina_penetration", 1e-6)]),
+                             [("balance_error", 1e-6), ("hoop_error", 0.05), ("detached_ratio", 0.1),
+                              ("drained_error", 1e-6), ("retina_nodes", (0, float("inf"))),
+                              ("retina_penetration", 1e-6)]),
     # a segmental tire pressed in by its sutures on a coarse eye: contact and sutures hold it
     # exactly along x and z (consistency: the contact force is the summed slave residual); the
     # sutures indent the sclera by at most what their geometry allows, s / (e . r) per string
@@ -91,7 +93,8 @@ def test_buckle_agrees_on_one_and_two_ranks(demo, shared_tmp, monkeypatch):
     assert runs["world"]["comm"].size == MPI.COMM_WORLD.size and runs["self"]["comm"].size == 1
     alone, together = (runs[c]["summary"] for c in ("self", "world"))
     for step_alone, step_together in zip(alone["steps"], together["steps"], strict=True):
-        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2", "retina_penetration_max_mm"):
+        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2", "retina_penetration_max_mm",
+                    "subretinal_volume_mm3"):
             assert step_together["eye"][key] == pytest.approx(step_alone["eye"][key], rel=1e-6, abs=1e-9), key
         for name, contact in step_alone["contact"].items():
             assert step_together["contact"][name]["force"] == pytest.approx(contact["force"], rel=1e-6, abs=1e-9), name

@@ -33,6 +33,11 @@ BUCKLED_EYE = '[mesh]\nbuilder = "buckled_eye"\n'
 BUCKLE_MATERIALS = EYE_MATERIALS + '[materials.band]\nmodel = "neo-hooke"\nc10 = 0.5\n'
 
 
+STEPS = '[[step]]\nname = "fill"\n[[step]]\nname = "close"\n[[step]]\nname = "drain"\n'
+SUB = '[[cavity]]\nname = "sub"\nsurface = "inner"\nbulk_modulus = 2083.3\n' + CLOSED  # a subretinal space
+BREAK = 'break_into = "vitreous"\nbreak_closes = "close"\n'
+
+
 def table(header, **keys):
     """A TOML array-of-tables entry ``[[header]]`` with its keys (values as TOML text)."""
     return f"[[{header}]]\n" + "".join(f"{key} = {value}\n" for key, value in keys.items())
@@ -92,6 +97,26 @@ CASES = {
                                   ["cavity 'vitreous'", "enclosed by 'outer'", "not positive", "faces the liquid"]),
     "injection-unknown-cavity": (OCTANT + CAVITY + CLOSED + table("injection", cavity='"aqueous"', volume="0.1"),
                                  ["[[injection]] #1", "cavity 'aqueous'", "['vitreous']"]),
+    # a retinal break (break_into, break_closes) and drainage (drain, drain_fraction)
+    "break-into-unknown-cavity": (OCTANT + STEPS + CAVITY + CLOSED + SUB + 'break_into = "lens"\n',
+                                  ["[[cavity]] #2", "break_into = 'lens'", "['sub', 'vitreous']"]),
+    "break-closes-without-break-into": (OCTANT + STEPS + CAVITY + CLOSED + SUB + 'break_closes = "close"\n',
+                                        ["[[cavity]] #2", "break_closes needs break_into"]),
+    "break-closes-unknown-step": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK.replace('"close"', '"later"'),
+                                  ["[[cavity]] #2", "break_closes 'later' is not a [[step]]", "'fill', 'close'"]),
+    "break-closes-with-the-filling": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK.replace('"close"', '"fill"'),
+                                      ["[[cavity]] #2", "cavity 'sub'", "break_closes must be a step after 'vitreous'"]),
+    "break-guest-pressurized": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK + "pressurize = true\n",
+                                ["[[cavity]] #2", "cavity 'sub'", "fills with 'vitreous'", "pressurize"]),
+    "drain-through-an-open-break": (OCTANT + STEPS + CAVITY + CLOSED + SUB + 'break_into = "vitreous"\ndrain = "drain"\n',
+                                    ["[[cavity]] #2", "drainage of 'sub'", "break is still open", "break_closes"]),
+    "drain-fraction-out-of-range": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK + 'drain = "drain"\ndrain_fraction = 1.0\n',
+                                    ["[[cavity]] #2", "drain_fraction must be a number in (0, 1)", "1.0"]),
+    "drain-fraction-without-drain": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK + "drain_fraction = 0.5\n",
+                                     ["[[cavity]] #2", "drain_fraction needs drain"]),
+    "injection-through-an-open-break": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK
+                                        + table("injection", cavity='"sub"', volume="-0.1", step='"fill"'),
+                                        ["[[injection]] #1", "injection into 'sub'", "break is open", "'vitreous'"]),
     # [[contact]]
     "contact-slave-is-master": (SOLID + contact(master='"z1"'),
                                 ["[[contact]] #1", "contact 'c'", "slave and master are both 'z1'"]),
