@@ -1,7 +1,8 @@
 # # Encircling scleral buckle: the surgeon's operation
 #
-# The scene `demos/encircling_buckle.toml`: the seed's eye (eight tissues, the vitreous, the
-# subretinal fluid and the aqueous as static liquids) in a half model, a silicone band 2.5 mm x
+# The scene `demos/encircling_buckle.toml`: the eye with the calibrated tissues
+# (`eyeball_fenicsx/tissues/calibrated.toml`; the vitreous, the subretinal fluid and the aqueous
+# as static liquids) in a half model, a silicone band 2.5 mm x
 # 0.6 mm around the sclera 12.5 mm behind the limbus, held by four mattress sutures (eight bites)
 # in the half eye, and a detachment of the retina centred under the band. The steps:
 #

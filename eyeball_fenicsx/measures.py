@@ -84,6 +84,16 @@ DETACHED_GAP = 0.01
 PENETRATION_TOLERANCE = DETACHED_GAP
 
 
+def ocular_rigidity(injected, iop, low=15.0, high=35.0):
+    """Friedenwald's ocular rigidity K in ln(P2/P1) = K (V2 - V1): the least-squares slope of
+    ln(IOP) against the injected volume over the states with ``low <= IOP <= high`` (mmHg), as
+    Pallikaris et al. fitted living eyes over 10-35 mmHg (IOVS 2005;46:409). Natural logarithm;
+    divide by ln 10 for Friedenwald's decimal one."""
+    injected, iop = np.asarray(injected, dtype=float), np.asarray(iop, dtype=float)
+    fitted = (iop >= low - 1e-6) & (iop <= high)
+    return float(np.polyfit(injected[fitted], np.log(iop[fitted]), 1)[0])
+
+
 def _polar_angle(X):
     """Polar angle (rad) of points seen from the origin, from the posterior pole (-z)."""
     return np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0))

@@ -73,7 +73,8 @@ def tissue_set(name, path):
     source = os.path.join(TISSUE_SETS, name + ".toml")
     with open(source, "rb") as f:
         materials = tomllib.load(f)["materials"]
-    return {region: (t, f"{source}: [materials.{region}]") for region, t in materials.items()}
+    return {region: (t, f"{path}: tissues = {name!r} ({source}): [materials.{region}]")
+            for region, t in materials.items()}
 
 
 def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
@@ -293,7 +294,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
                              f"(its surfaces: {sorted(mesh_data.surfaces)})")
     for region in materials:
         if region not in mesh_data.regions:
-            raise SceneError(f"{path}: [materials.{region}]: {region!r} is not a volume group of mesh "
+            raise SceneError(f"{tables[region][1]}: {region!r} is not a volume group of mesh "
                              f"{mesh_data.source} (its regions: {sorted(mesh_data.regions)})")
     missing = sorted(set(mesh_data.regions) - set(materials))
     if missing:

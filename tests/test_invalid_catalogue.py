@@ -97,6 +97,10 @@ CASES = {
                                   ["cavity 'vitreous'", "enclosed by 'outer'", "not positive", "faces the liquid"]),
     "injection-unknown-cavity": (OCTANT + CAVITY + CLOSED + table("injection", cavity='"aqueous"', volume="0.1"),
                                  ["[[injection]] #1", "cavity 'aqueous'", "['vitreous']"]),
+    # tissue sets
+    "tissues-unknown-set": ('tissues = "living"\n' + OCTANT, ["scene.toml", "tissues = 'living' is not a tissue set",
+                                                             "'calibrated'", "'seed'"]),
+    "tissues-on-a-mesh-without-the-eye": ('tissues = "seed"\n' + OCTANT, ["tissues = 'seed'", "[materials.cornea]", "'cornea' is not a volume group"]),
     # a retinal break (break_into, break_closes) and drainage (drain, drain_fraction)
     "break-into-unknown-cavity": (OCTANT + STEPS + CAVITY + CLOSED + SUB + 'break_into = "lens"\n',
                                   ["[[cavity]] #2", "break_into = 'lens'", "['sub', 'vitreous']"]),
