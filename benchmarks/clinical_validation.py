@@ -35,7 +35,7 @@ import numpy as np
 from mpi4py import MPI
 
 from eyeball_fenicsx.measures import ocular_rigidity
-from eyeball_fenicsx.output import write_json_atomic, write_text_atomic
+from eyeball_fenicsx.output import save_figure_atomic, write_json_atomic, write_text_atomic
 from eyeball_fenicsx.scenefile import load_scene
 from provenance import machine_record
 
@@ -160,7 +160,7 @@ def main():
         right.set_ylabel("refraction change after suturing (D)")
         right.legend(fontsize=8)
         fig.tight_layout()
-        fig.savefig(os.path.join(RESULTS, "clinical_validation.png"), dpi=120)
+        save_figure_atomic(fig, os.path.join(RESULTS, "clinical_validation.png"))
 
 
 if __name__ == "__main__":

@@ -84,7 +84,7 @@ hoop_error = abs(held[1] - 2 * hoop_tension) / (2 * hoop_tension)
 # attached: the part of the detachment left open counts the detached area (gap above 0.01 mm)
 # and the penetrated. The surgeon's aim, and the test's bound: the area left open after the
 # drainage at most a tenth of the detached area after "pressurize" (`detached_ratio`). The
-# drained volume is what the drainage took, 98 % of what the space held when it began.
+# space's volume, measured between the retina and the choroid, must fall by the 98 % drained.
 
 # +
 eyes = [step["eye"] for step in summary["steps"]]
@@ -92,8 +92,9 @@ detached_ratio = (eyes[-1]["detached_area_mm2"] + eyes[-1]["penetrated_area_mm2"
 retina_penetration = max(e["retina_penetration_max_mm"] for e in eyes)
 retina_nodes = final["contact"]["retina-choroid"]["active_nodes"]
 subretinal = final["cavities"]["subretinal"]
-drained_error = abs(subretinal["drained_volume"] - 0.98 * summary["steps"][-2]["cavities"]["subretinal"]["volume"]) \
-    / subretinal["drained_volume"]
+# the share of the liquid that left, from the space's measured volumes (the prescribed 0.98 but for
+# the liquid's compressibility, dp / K ~ 1e-7)
+drained_error = abs(1 - subretinal["volume"] / summary["steps"][-2]["cavities"]["subretinal"]["volume"] - 0.98) / 0.98
 # -
 
 # ## What the surgeon asks

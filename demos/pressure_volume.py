@@ -4,7 +4,8 @@
 # (`eyeball_fenicsx/tissues/calibrated.toml`), the aqueous and the vitreous one liquid, held by
 # its optic nerve. The eye is filled to 15 mmHg, then liquid is injected in 10 microlitre steps
 # until the pressure is past 35 mmHg, as Pallikaris et al. measured living eyes (IOVS
-# 2005;46:409: saline injected into the anterior chamber of 79 eyes undergoing cataract surgery).
+# 2005;46:409: saline injected into the anterior chamber of 79 eyes undergoing cataract surgery,
+# in 4.5 microlitre steps).
 #
 # **Ocular rigidity.** Friedenwald (1937) found the logarithm of the pressure linear in the
 # injected volume, log(P2/P1) = K (V2 - V1). His K (about 0.0215 per microlitre) uses the decimal
@@ -28,6 +29,7 @@ import numpy as np
 from mpi4py import MPI
 
 from eyeball_fenicsx.measures import ocular_rigidity
+from eyeball_fenicsx.output import save_figure_atomic
 from eyeball_fenicsx.scenefile import load_scene
 
 here = os.path.dirname(os.path.abspath(__file__))
@@ -65,5 +67,5 @@ if MPI.COMM_WORLD.rank == 0:
     axes.set_ylabel("IOP (mmHg)")
     axes.legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(os.path.join(out, "pressure_volume.png"), dpi=120)
+    save_figure_atomic(figure, os.path.join(out, "pressure_volume.png"))
 # -

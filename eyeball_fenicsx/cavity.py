@@ -150,7 +150,6 @@ class LiquidCavity(Feature):
         self._dV = ufl.derivative(volume, solid.w, ufl.TestFunction(solid.W))
         self.dV_form = fem.form(self._dV)
         self.pressure = fem.Constant(msh, 0.0)
-        self.open = fem.Constant(msh, 1.0 if self.host is not None else 0.0)  # 1 while the break is open
         self.V_ini = self.V_ref = self.volume()
         if not self.V_ini > 0:
             raise SceneError(f"cavity {self.name!r}: the volume enclosed by {self.surface!r} is {self.V_ini:.4g}, "
@@ -164,12 +163,15 @@ class LiquidCavity(Feature):
         """The liquid's load -p V'; through an open break, the host's pressure."""
         if self.host is None:
             return -self.pressure * self._dV
+        self.open = fem.Constant(solid.mesh_data.mesh, 1.0)  # 1 while the break is open
         return -(self.open * self.host.pressure + (1 - self.open) * self.pressure) * self._dV
 
     def set_load_factor(self, factor):
         self.factor = factor
 
     def begin_step(self, step_index):
+        if self.step_index < 0:  # the first step: the liquid law covers the guests' walls too
+            self.V_ref = self.V_ini + sum(g.V_ini for g in self.guests)
         self.step_index = step_index
         if self.pressurize and step_index == self.step:
             self.filling = True
@@ -178,7 +180,7 @@ class LiquidCavity(Feature):
             self.V_ref = self.liquid_volume()
             self.filled_volume = self.V_ref - self.V_ini - sum(g.V_ini for g in self.guests)
         if self.drainage is not None and step_index == self.drainage.step:
-            self.drainage.volume = -self.drainage.fraction * self.current_volume
+            self.drainage.volume = -self.drainage.fraction * self.liquid_volume()
         for guest in self.guests:  # the host decides, so that both restart from the same state
             if guest.break_open and guest.break_closes is not None and step_index >= guest.break_closes:
                 guest.break_open = False
@@ -196,10 +198,6 @@ class LiquidCavity(Feature):
         """The volume the liquid law sees: this cavity's, and its guests' through open breaks."""
         return self.current_volume + sum(g.current_volume for g in self.guests if g.break_open)
 
-    @property
-    def prescribed(self):
-        """The pressure is prescribed (filling, or idle behind an open break)."""
-        return self.filling or self.break_open
 
     def volume(self):
         return self.solid.comm.allreduce(fem.assemble_scalar(self.volume_form), op=MPI.SUM)
@@ -207,7 +205,8 @@ class LiquidCavity(Feature):
     def injected(self):
         """Liquid volume added so far: this cavity's own, ramped in its step, and any
         later ``Injection`` or ``Drainage``."""
-        return self.factor * self.dV_inj + sum(i.factor * i.volume for i in self.injections)
+        drained = self.drainage.factor * self.drainage.volume if self.drainage is not None else 0.0
+        return self.factor * self.dV_inj + sum(i.factor * i.volume for i in self.injections) + drained
 
     def law(self, V):
         """Liquid pressure at volume V (at the current load factor); while filling or behind
@@ -227,7 +226,9 @@ class LiquidCavity(Feature):
             self.pressure.value = self.law(self.current_volume)
 
     def unknown_residuals(self):
-        """dPi/dp = -(V - V_ref - dV_inj) - V_ref (p - p_ini) / K (scaled alike while filling)."""
+        """dPi/dp = -(V - V_ref - dV_inj) - V_ref (p - p_ini) / K (scaled alike while filling),
+        V the volume of the liquid (with the guests' behind open breaks); behind an open break
+        the idle row -V_ref p / K."""
         p = self.unknowns[0]
         return [(self.law(self.liquid_volume()) - p) * self.V_ref / self.K]
 
@@ -247,7 +248,7 @@ class LiquidCavity(Feature):
         walls = [self] + [g for g in self.guests if g.break_open]
         dofs = np.concatenate([c.wetted for c in walls])
         gradient = -np.concatenate([c._volume_gradient() for c in walls])
-        row = np.zeros_like(gradient) if self.prescribed else gradient
+        row = np.zeros_like(gradient) if self.filling else gradient
         return [(dofs, gradient, row, -self.V_ref / self.K)]
 
     def coupling(self):
@@ -295,8 +296,9 @@ class Drainage(Feature):
         if cavity.host is not None and (cavity.break_closes is None or step < cavity.break_closes):
             raise SceneError(f"drainage of {cavity.name!r}: its break is still open in that step (draining it "
                              f"would drain {cavity.host.name!r} too); close the break first (break_closes)")
-        if cavity.drainage is not None or (cavity.pressurize and step <= cavity.step):
-            raise SceneError(f"drainage of {cavity.name!r}: drain a cavity once, after it is filled")
+        if cavity.drainage is not None or step == 0 or (cavity.pressurize and step <= cavity.step):
+            raise SceneError(f"drainage of {cavity.name!r}: drain a cavity once, in a step after it is filled "
+                             "(not the first)")
         if isinstance(fraction, bool) or not isinstance(fraction, (int, float)) or not 0 < fraction < 1:
             raise SceneError(f"drainage of {cavity.name!r}: drain_fraction must be a number in (0, 1) (the "
                              f"share of the liquid removed; all of it cannot go), got {fraction!r}")
@@ -304,7 +306,6 @@ class Drainage(Feature):
         self.step, self.factor, self.fraction = step, 0.0, float(fraction)
         self.volume = 0.0  # the change, set when the step starts
         cavity.drainage = self
-        cavity.injections.append(self)
 
     def set_load_factor(self, factor):
         self.factor = factor

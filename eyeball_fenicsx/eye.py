@@ -5,7 +5,7 @@ import numpy as np
 
 from dolfinx import cpp
 
-from .measures import DETACHED_GAP
+from .measures import DETACHED_GAP, polar_angle
 from .output import plot_curves, save_figure_atomic
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
@@ -140,7 +140,7 @@ def retina_gap_png(measures, path, title=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    polar = np.degrees(np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0)))
+    polar = np.degrees(polar_angle(X))
     azimuth = np.degrees(np.arctan2(X[:, 1], X[:, 0]))
     figure, axes = plt.subplots(figsize=(8, 4.5))
     levels = np.linspace(min(gap.min(), 0.0), max(gap.max(), 1e-3), 21)

@@ -91,10 +91,12 @@ def ocular_rigidity(injected, iop, low=15.0, high=35.0):
     divide by ln 10 for Friedenwald's decimal one."""
     injected, iop = np.asarray(injected, dtype=float), np.asarray(iop, dtype=float)
     fitted = (iop >= low - 1e-6) & (iop <= high)
+    if fitted.sum() < 2:
+        raise ValueError(f"ocular rigidity: {fitted.sum()} state(s) between {low} and {high} mmHg, need two")
     return float(np.polyfit(injected[fitted], np.log(iop[fitted]), 1)[0])
 
 
-def _polar_angle(X):
+def polar_angle(X):
     """Polar angle (rad) of points seen from the origin, from the posterior pole (-z)."""
     return np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0))
 
@@ -153,11 +155,11 @@ class EyeMeasures(Feature):
         self.X = self.V.tabulate_dof_coordinates()[: self.owned]
         comm = solid.comm
         if self.buckle is not None:
-            buckle = _polar_angle(self.X[self._surface_nodes(self.buckle)])
+            buckle = polar_angle(self.X[self._surface_nodes(self.buckle)])
             lo = comm.allreduce(buckle.min() if len(buckle) else np.inf, op=MPI.MIN)
             hi = comm.allreduce(buckle.max() if len(buckle) else -np.inf, op=MPI.MAX)
             self.sclera_nodes = self._surface_nodes(self.sclera)
-            polar = _polar_angle(self.X[self.sclera_nodes])
+            polar = polar_angle(self.X[self.sclera_nodes])
             self.under = (polar >= lo - 1e-9) & (polar <= hi + 1e-9)
             self.around = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a buckle width away
             under, around = comm.allreduce(np.array([self.under.sum(), self.around.sum()]), op=MPI.SUM)
@@ -247,8 +249,7 @@ class EyeMeasures(Feature):
         if self.step_index == self.preoperative_step:
             self.preoperative_length = length
         from_mesh = length - self.initial_length
-        after = self.preoperative_length is not None and self.step_index >= self.preoperative_step
-        change = length - self.preoperative_length if after else from_mesh
+        change = from_mesh if self.preoperative_length is None else length - self.preoperative_length
         result = {"axial_length_mm": length, "axial_length_change_mm": change,
                   "refraction_change_D": DIOPTRES_PER_MM * change, "axial_length_change_from_mesh_mm": from_mesh,
                   "refraction_change_from_mesh_D": DIOPTRES_PER_MM * from_mesh}

@@ -131,3 +131,71 @@ def test_pressurize_fills_to_the_pressure_then_holds_the_liquid(sphere_mesh):
     # the liquid's law about the filled state holds exactly
     assert result["pressure"] == pytest.approx(p_ini - K * (result["volume"] - V1 - 0.05) / V1, rel=1e-7)
     assert result["injected_volume"] == pytest.approx(V1 - V_ini + 0.05, rel=1e-9)
+
+
+BREAK_SCENE = """
+name = "retinal-break"
+tissues = "seed"
+[mesh]
+builder = "eye"
+sector_deg = 180.0
+n_circ = 16
+detachment = { polar_deg = 0.0, extent_deg = 25.0, gap = 0.1 }
+[[step]]
+name = "fill"
+[[step]]
+name = "close"
+[[step]]
+name = "drain"
+[[dirichlet]]
+surface = "optic_nerve_end"
+x = 0.0
+y = 0.0
+z = 0.0
+[[dirichlet]]
+surface = "cut_0"
+y = 0.0
+[[dirichlet]]
+surface = "cut_1"
+y = 0.0
+[[cavity]]
+name = "vitreous"
+surface = "vitreous_wall"
+bulk_modulus = 2083.3
+initial_pressure = 0.002
+pressurize = true
+symmetry = ["y"]
+[[cavity]]
+name = "subretinal"
+surface = ["retina_outer", "choroid_inner"]
+bulk_modulus = 2083.3
+symmetry = ["y"]
+break_into = "vitreous"
+break_closes = "close"
+drain = "drain"
+drain_fraction = 0.5
+"""
+
+
+def test_retinal_break_and_drainage(shared_tmp):
+    """A pole-centred detachment on the coarse half eye: the subretinal space is one liquid with
+    the vitreous while the break is open (the vitreous' prescribed pressure on both), closing the
+    break in a step that changes nothing leaves the state as it was (both laws restart from it),
+    and draining half of the subretinal liquid halves the space while the vitreous keeps its
+    liquid: its volume changes only by the liquid law's -V dp / K."""
+    from test_scenes import read_summary, scene_file
+    from eyeball_fenicsx.scenefile import load_scene
+    load_scene(scene_file(shared_tmp, BREAK_SCENE)).run(shared_tmp)
+    steps = {s["name"]: s["cavities"] for s in read_summary(shared_tmp)["steps"]}
+    fill, close, drain = steps["fill"], steps["close"], steps["drain"]
+    assert fill["subretinal"]["break"] == "open" and close["subretinal"]["break"] == "closed"
+    assert fill["subretinal"]["pressure"] == fill["vitreous"]["pressure"] == pytest.approx(0.002, rel=1e-9)
+    assert fill["subretinal"]["volume"] > 1.5 * fill["subretinal"]["initial_volume"]  # the wall inflated
+    for name in ("vitreous", "subretinal"):
+        for key in ("pressure", "volume"):
+            assert close[name][key] == pytest.approx(fill[name][key], rel=1e-9), (name, key)
+    assert drain["subretinal"]["volume"] / close["subretinal"]["volume"] == pytest.approx(0.5, rel=1e-6)
+    assert drain["subretinal"]["drained_volume"] == pytest.approx(0.5 * close["subretinal"]["volume"], rel=1e-12)
+    dp = drain["vitreous"]["pressure"] - close["vitreous"]["pressure"]
+    assert drain["vitreous"]["volume"] / close["vitreous"]["volume"] - 1 == pytest.approx(-dp / 2083.3, abs=1e-9)
+    assert drain["subretinal"]["pressure"] < drain["vitreous"]["pressure"]  # the retina pressed outward

@@ -39,8 +39,8 @@ DEMOS = {
     # each rank alone: ~60 s):
     # contact and sutures hold the band, exactly along x and z (a consistency check: the contact
     # force is the summed slave residual), and along y to Laplace's law for its hoop tension (a
-    # physics check, 5 %: the band is also bent and pressed). The drainage took 98 % of the
-    # subretinal fluid (its volume law: to the solver's tolerance), and reattached the retina: the
+    # physics check, 5 %: the band is also bent and pressed). The subretinal space's volume fell by
+    # the 98 % drained (its liquid law: to the compressibility's 1e-7), and the retina reattached: the
     # area left open (detached or penetrated) at most a tenth of the detached area after
     # "pressurize" (issue 16's aim; measured: none left open on this eye, 3.6 % on the default one),
     # with the retina-choroid contact carrying retina
