@@ -97,15 +97,17 @@ def main():
     suture, reduction = shipped["suture"], 8.0
     figures.append(figure("encircling: axial length change after suturing (mm)", suture["axial_length_change_mm"],
                           0.7, 1.2, "Smiddy et al. 1989 (+0.99 mm, 75 eyes); BMC Ophthalmol 2021 (+0.83 mm)",
-                          "the calibrated sclera (E 3.9 MPa) yields to the band far less than the seed's: the "
-                          "8 mm reduction indents it less than surgeons' buckles"))
+                          "the buckle is a third of the clinical one (below)"))
     figures.append(figure("encircling: refraction change after suturing (D)", suture["refraction_change_D"],
                           -2.8, -1.3, "Smiddy et al. 1989 (-2.75 D); later series", "follows the axial length"))
     figures.append(figure("encircling: buckle height (mm) for 8 mm of reduction", suture["buckle_height_mm"],
                           0.5 * reduction / (2 * np.pi), reduction / (2 * np.pi),
                           "geometric rule dC / 2 pi = 1.27 mm (an upper bound: the band also stretches); "
                           "surgeons shorten about 5 mm per mm of height (IOVS ARVO abstract 2357577)",
-                          "the band (E 2.5 MPa) stretches rather than indent the stiffer sclera"))
+                          "the isotropic sclera, calibrated on the inflated globe (stiff at 15-35 mmHg), is as "
+                          "stiff in hoop compression under the band, where measured sclera is far softer "
+                          "(crimped fibres; Battaglioli & Kamm 1984: radial compression 100 x softer); not the "
+                          "IOP: restored to 15 mmHg after the operation, the buckle deepens by 0.02 mm only"))
     ratios = {w: widths[w]["suture"]["refraction_change_D"] / shipped["suture"]["refraction_change_D"] for w in widths}
     for w in (1.0, 2.0):
         expected = LANCHARES[w] / LANCHARES[2.5]

@@ -9,7 +9,8 @@ contact force of every step is compared with the one-rank run:
 
 (not under mpirun: it starts the runs). Writes benchmarks/results/rank_agreement[_<n>].json and
 .md: per scene and rank count the largest relative difference, which measure it was, the wall
-time, and whether the run converged. About 12 minutes on two cores for the default eye.
+time, and whether the run converged. The scenes: the seed's encircling operation, the segmental
+buckle, and the surgeon's operation (calibrated tissues, the break closed, the drainage).
 """
 import argparse
 import json
@@ -27,7 +28,8 @@ from eyeball_fenicsx.sweep import set_parameter
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SCENES = {"encircling": os.path.join(REPO, "demos", "encircling_buckle_seed.toml"),
-          "segmental": os.path.join(REPO, "demos", "segmental_buckle.toml")}
+          "segmental": os.path.join(REPO, "demos", "segmental_buckle.toml"),
+          "surgeon": os.path.join(REPO, "demos", "encircling_buckle.toml")}
 FLOOR = 1e-9  # measures smaller than this (mm, mmHg, N) are compared absolutely
 
 

@@ -1,6 +1,6 @@
 """The README's default-eye figures, reproduced to the digits it quotes.
 
-Slow (about 8 minutes on two cores: the default eye through the encircling operation with its
+Slow (about 2 minutes on two cores: the default eye through the encircling operation with its
 drainage, the segmental buckle, and the eye at rest), so it runs only when asked:
 
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 -m pytest -m slow -o faulthandler_timeout=0 tests/test_readme_figures.py
