@@ -45,7 +45,10 @@ def run(scene, ranks, n_circ, out):
     command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks), sys.executable, "-m",
                "eyeball_fenicsx", "run", path, "--out", out]
     start = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, cwd=REPO)
+    # os.environ is the environment this process started with: importing eyeball_fenicsx starts
+    # an MPI singleton, which adds variables to the C environment that make a child mpirun exit 1
+    # without a word
+    done = subprocess.run(command, capture_output=True, text=True, cwd=REPO, env=dict(os.environ))
     wall = time.perf_counter() - start
     if done.returncode != 0:
         return None, wall, (done.stderr.strip().splitlines() or ["exit %d" % done.returncode])[-1]
