@@ -135,6 +135,10 @@ class LiquidCavity(Feature):
         self.host, self.break_closes, self.break_open = host, closes, True
         host.guests.append(self)
 
+    def break_open_in(self, step_index):
+        """The break (if any) is open in step ``step_index``: the liquid is the host's."""
+        return self.host is not None and (self.break_closes is None or step_index < self.break_closes)
+
     def setup(self, solid):
         self.solid = solid
         msh = solid.mesh_data.mesh
@@ -171,18 +175,18 @@ class LiquidCavity(Feature):
 
     def begin_step(self, step_index):
         if self.step_index < 0:  # the first step: the liquid law covers the guests' walls too
-            self.V_ref = self.V_ini + sum(g.V_ini for g in self.guests)
+            self.V_ref = self.initial_liquid = self.V_ini + sum(g.V_ini for g in self.guests)
         self.step_index = step_index
         if self.pressurize and step_index == self.step:
             self.filling = True
         elif self.filling and step_index > self.step:  # filled: the liquid law from here on
             self.filling = False
             self.V_ref = self.liquid_volume()
-            self.filled_volume = self.V_ref - self.V_ini - sum(g.V_ini for g in self.guests)
+            self.filled_volume = self.V_ref - self.initial_liquid
         if self.drainage is not None and step_index == self.drainage.step:
             self.drainage.volume = -self.drainage.fraction * self.liquid_volume()
         for guest in self.guests:  # the host decides, so that both restart from the same state
-            if guest.break_open and guest.break_closes is not None and step_index >= guest.break_closes:
+            if guest.break_open and not guest.break_open_in(step_index):
                 guest.break_open = False
                 guest.open.value = 0.0
                 guest.unknowns[0] = self.unknowns[0]
@@ -276,8 +280,7 @@ class LiquidCavity(Feature):
         p = self.unknowns[0] if self.algorithm == "new" else self.law(self.current_volume)
         if self.break_open:
             p = self.host.unknowns[0]
-        filled = self.liquid_volume() - self.V_ini - sum(g.V_ini for g in self.guests) if self.filling else \
-            self.filled_volume
+        filled = self.liquid_volume() - self.initial_liquid if self.filling else self.filled_volume
         result = {"pressure": float(p), "volume": float(self.current_volume), "initial_volume": float(self.V_ini)}
         if self.host is None:
             result["injected_volume"] = float(filled + self.injected())
@@ -293,7 +296,7 @@ class Drainage(Feature):
     the liquid it holds when the step starts leaves it, all but ``1 - fraction`` of it."""
 
     def __init__(self, cavity: LiquidCavity, step, fraction=0.98):
-        if cavity.host is not None and (cavity.break_closes is None or step < cavity.break_closes):
+        if cavity.break_open_in(step):
             raise SceneError(f"drainage of {cavity.name!r}: its break is still open in that step (draining it "
                              f"would drain {cavity.host.name!r} too); close the break first (break_closes)")
         if cavity.drainage is not None or step == 0 or (cavity.pressurize and step <= cavity.step):
@@ -318,7 +321,7 @@ class Injection(Feature):
     def __init__(self, cavity: LiquidCavity, volume, step):
         if isinstance(volume, bool) or not isinstance(volume, (int, float)) or not np.isfinite(volume):
             raise SceneError(f"injection into {cavity.name!r}: volume must be a finite number, got {volume!r}")
-        if cavity.host is not None and (cavity.break_closes is None or step < cavity.break_closes):
+        if cavity.break_open_in(step):
             raise SceneError(f"injection into {cavity.name!r}: its break is open in that step; inject into "
                              f"{cavity.host.name!r}, or after the break closes")
         self.name = f"{cavity.name} injection {len(cavity.injections) + 1}"

@@ -228,7 +228,8 @@ class EyeMeasures(Feature):
                   "retina_penetration_max_mm": float(max(depth - PENETRATION_TOLERANCE, 0.0)),
                   "penetrated_area_mm2": float(penetrated)}
         result["reattached_fraction"] = float(1 - (detached + penetrated) / self.detachment_area)
-        result["subretinal_volume_mm3"] = float(comm.allreduce(fem.assemble_scalar(self._subretinal_volume), op=MPI.SUM))
+        subretinal = comm.allreduce(fem.assemble_scalar(self._subretinal_volume), op=MPI.SUM)
+        result["subretinal_volume_mm3"] = float(subretinal)
         return result
 
     def retina_gap_map(self):

@@ -19,8 +19,8 @@ read as the penetration it would remove (|Delta lambda_i| / alpha_i), exceeds AU
 of the thickness of the element under it: the weighted gaps then vanish, to that depth,
 wherever the surfaces press, whatever the penalty. One constraint per slave node, as in
 mortar methods: one per Gauss point would be more constraints than the slave surface has
-nodes, and the pressure modes that move no node would never converge. Increments inside a step take one update each,
-without solving again (it starts the next increment closer).
+nodes, and the pressure modes that move no node would never converge. Increments inside a
+step take one update each, without solving again (it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
 gaps drives the surfaces through each other by the whole step, and the penalty throws them
@@ -191,7 +191,6 @@ class ContactFeature(Feature):
         target[seen] = np.maximum(self.node_multiplier[seen] - alpha[seen] * gap[seen] / area[seen] ** 2, 0.0)
         owned = seen & (np.arange(len(seen)) < self._num_owned)
         update = target - self.node_multiplier
-        weighted = area * owned
         unsettled = np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]
         if self.solid.comm.allreduce(unsettled.max(initial=0.0), op=MPI.MAX) <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
             self._last_update = None
@@ -199,6 +198,7 @@ class ContactFeature(Feature):
         # Aitken's relaxation of the increments (Irons and Tuck 1969; Kuettler and Wall,
         # Comput. Mech. 43 (2008) 61-72): omega <- -omega r_(k-1) . (r_k - r_(k-1)) / |r_k - r_(k-1)|^2
         if self._last_update is not None:
+            weighted = area * owned
             change = update - self._last_update
             dots = self.solid.comm.allreduce(np.array([np.sum(weighted * self._last_update * change),
                                                        np.sum(weighted * change**2)]), op=MPI.SUM)
