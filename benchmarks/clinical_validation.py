@@ -34,9 +34,9 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from eyeball_fenicsx.measures import ocular_rigidity
-from eyeball_fenicsx.output import save_figure_atomic, write_json_atomic, write_text_atomic
-from eyeball_fenicsx.scenefile import load_scene
+from eyeball_fenicsx.output.measures import ocular_rigidity
+from eyeball_fenicsx.output.files import save_figure_atomic, write_json_atomic, write_text_atomic
+from eyeball_fenicsx.scene.loader import load_scene
 from provenance import machine_record
 
 HERE = os.path.dirname(os.path.abspath(__file__))

@@ -32,7 +32,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from eyeball_fenicsx.contact import ContactPair
-from eyeball_fenicsx.scenefile import load_scene
+from eyeball_fenicsx.scene.loader import load_scene
 from provenance import run_record
 
 comm = MPI.COMM_WORLD

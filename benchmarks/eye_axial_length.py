@@ -25,7 +25,7 @@ import time
 from mpi4py import MPI
 
 from eyeball_fenicsx.errors import ConvergenceError
-from eyeball_fenicsx.scenefile import load_scene
+from eyeball_fenicsx.scene.loader import load_scene
 from provenance import run_record
 
 comm = MPI.COMM_WORLD

@@ -53,11 +53,11 @@ from dolfinx.fem.petsc import (NonlinearProblem, assemble_matrix, assemble_vecto
 from dolfinx.mesh import compute_midpoints, meshtags
 
 import eyeball_fenicsx as ef
-from eyeball_fenicsx.formulation import MixedSolid
-from eyeball_fenicsx.mesh import built_mesh
-from eyeball_fenicsx.solver import DEFAULT_OPTIONS, PREFIX
-from eyeball_fenicsx.sutures import Suture
-from meshes.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.mechanics.solid import MixedSolid
+from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.system.newton import DEFAULT_OPTIONS, PREFIX
+from eyeball_fenicsx.features.sutures import Suture
+from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
 from provenance import run_record
 from sphere_scaling import busy_cores, event_seconds, wait_for_quiet
 

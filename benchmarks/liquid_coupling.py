@@ -27,9 +27,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import eyeball_fenicsx as ef
-from eyeball_fenicsx.cavity import LiquidCavity
-from eyeball_fenicsx.mesh import built_mesh
-from meshes.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.features.cavity import LiquidCavity
+from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
 from provenance import run_record
 
 comm = MPI.COMM_WORLD

@@ -53,9 +53,9 @@ import tomli_w
 from mpi4py import MPI
 
 from eyeball_fenicsx.errors import ConvergenceError, SceneError
-from eyeball_fenicsx.output import write_json_atomic, write_text_atomic
-from eyeball_fenicsx.scenefile import load_scene
-from eyeball_fenicsx.sweep import set_parameter
+from eyeball_fenicsx.output.files import write_json_atomic, write_text_atomic
+from eyeball_fenicsx.scene.loader import load_scene
+from eyeball_fenicsx.scene.sweep import set_parameter
 from provenance import machine_record
 
 comm = MPI.COMM_WORLD

@@ -23,7 +23,7 @@ import tomllib
 import tomli_w
 
 import provenance
-from eyeball_fenicsx.sweep import set_parameter
+from eyeball_fenicsx.scene.sweep import set_parameter
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)

@@ -60,9 +60,9 @@ from petsc4py import PETSc
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch
-from eyeball_fenicsx.mesh import built_mesh
-from eyeball_fenicsx.solver import PREFIX
-from meshes.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.system.newton import PREFIX
+from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
 from provenance import run_record
 
 comm = MPI.COMM_WORLD

@@ -56,14 +56,14 @@ from dolfinx.io import gmshio
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch, sphere_pressure
-from eyeball_fenicsx.cavity import LiquidCavity
+from eyeball_fenicsx.features.cavity import LiquidCavity
 from eyeball_fenicsx.contact import RigidContact
-from eyeball_fenicsx.feature import Feature
-from eyeball_fenicsx.mesh import MeshData, built_mesh
-from eyeball_fenicsx.output import write_text_atomic
-from meshes.block import build_block
-from meshes.cook import TIP, build_cook
-from meshes.sphere_octant import build_sphere_octant, layer_radii, octant_directions
+from eyeball_fenicsx.features.base import Feature
+from eyeball_fenicsx.meshing.load import MeshData, built_mesh
+from eyeball_fenicsx.output.files import write_text_atomic
+from eyeball_fenicsx.meshing.builders.block import build_block
+from eyeball_fenicsx.meshing.builders.cook import TIP, build_cook
+from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant, layer_radii, octant_directions
 from provenance import run_record
 
 comm = MPI.COMM_WORLD

@@ -18,7 +18,7 @@
 #
 # **An independent estimate of the rigidity.** Seen from the centre of the sclera, the wall
 # around the vitreous is, direction by direction, concentric spherical layers (retina,
-# choroid, sclera; ciliary body and sclera in front of the ora serrata; `meshes.eye.scleral_wall`).
+# choroid, sclera; ciliary body and sclera in front of the ora serrata; `eyeball_fenicsx.meshing.builders.eye.scleral_wall`).
 # For a closed spherical membrane, linear theory adds the directions independently and exactly:
 # the stress resultants are $N = pR/2$ whatever the thickness (Laplace's law, statically
 # determinate), each patch strains as its own thickness requires, and the volume change
@@ -41,12 +41,12 @@ import numpy as np
 from mpi4py import MPI
 
 from eyeball_fenicsx.analytic import wall_volume_change
-from eyeball_fenicsx.cavity import Injection
-from eyeball_fenicsx.eye import eye_section_png, stress_section_png
-from eyeball_fenicsx.measures import MMHG_PER_MPA, EyeMeasures
-from eyeball_fenicsx.scene import Step
-from eyeball_fenicsx.scenefile import load_scene
-from meshes.eye import scleral_wall
+from eyeball_fenicsx.features.cavity import Injection
+from eyeball_fenicsx.output.eye_pictures import eye_section_png, stress_section_png
+from eyeball_fenicsx.output.measures import MMHG_PER_MPA, EyeMeasures
+from eyeball_fenicsx.scene.scene import Step
+from eyeball_fenicsx.scene.loader import load_scene
+from eyeball_fenicsx.meshing.builders.eye import scleral_wall
 
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.environ.get("DEMO_OUT", os.path.join("out", "eye_at_rest"))

@@ -1,16 +1,32 @@
-"""eyeball-fenicsx: finite-element simulation of scleral buckling surgery on FEniCSx."""
-from .contact import ContactPair, RigidContact
-from .errors import ConvergenceError, SceneError
-from .loads import Dirichlet, NodalForce, Pressure
-from .materials import LinearElastic, MooneyRivlin, NeoHooke
-from .scene import Scene, Step
-from .stepping import SolverSettings
+"""eyeball-fenicsx: finite-element simulation of scleral buckling surgery on FEniCSx.
 
-__all__ = ["ContactPair", "RigidContact", "ConvergenceError", "SceneError", "Dirichlet", "NodalForce", "Pressure", "LinearElastic",
-           "MooneyRivlin", "NeoHooke", "Scene", "Step", "SolverSettings"]
+The public API is imported on first use (PEP 562), so that the gmsh mesh builders
+(``eyeball_fenicsx.meshing.builders``) and the error types import without DOLFINx.
+"""
+import importlib
 
-# A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
-# up after 10 s, too short for the eye's forms on a busy two-core machine.
-import dolfinx.jit as _jit  # noqa: E402
+_PUBLIC = {
+    "ContactPair": "contact", "RigidContact": "contact",
+    "ConvergenceError": "errors", "SceneError": "errors",
+    "Dirichlet": "features.loads", "NodalForce": "features.loads", "Pressure": "features.loads",
+    "LiquidCavity": "features.cavity", "Injection": "features.cavity", "Drainage": "features.cavity",
+    "Suture": "features.sutures", "BandTightening": "features.band",
+    "LinearElastic": "mechanics.materials", "MooneyRivlin": "mechanics.materials", "NeoHooke": "mechanics.materials",
+    "EyeMeasures": "output.measures",
+    "Scene": "scene.scene", "Step": "scene.scene", "load_scene": "scene.loader",
+    "SolverSettings": "system.stepping",
+    "load_mesh": "meshing.load", "built_mesh": "meshing.load",
+}
+__all__ = sorted(_PUBLIC)
 
-_jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"] = (600, _jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"][1])
+
+def __getattr__(name):
+    if name not in _PUBLIC:
+        raise AttributeError(f"module 'eyeball_fenicsx' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_PUBLIC[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return __all__

@@ -58,10 +58,10 @@ def main(argv=None):
     try:
         _petsc_options(petsc)
         if args.command == "sweep":
-            from .sweep import run_sweep
+            from .scene.sweep import run_sweep
             run_sweep(args.scene, args.parameter, args.values, args.out)
             return 0
-        from .scenefile import load_scene
+        from .scene.loader import load_scene
         scene = load_scene(args.scene)
         try:
             scene.run(args.out)

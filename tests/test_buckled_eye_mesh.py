@@ -1,4 +1,4 @@
-"""The buckled eye (meshes/buckled_eye.py): the eye plus an encircling band and/or a silicone tire.
+"""The buckled eye (eyeball_fenicsx/meshing/builders/buckled_eye.py): the eye plus an encircling band and/or a silicone tire.
 
 Runs in serial and under ``mpirun -n 2``: the meshes are built on rank 0 and distributed, every check
 is collective, and nodes are gathered on rank 0 (by their global input numbers) to compare bodies.
@@ -15,9 +15,9 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.mesh import built_mesh, load_mesh
-from meshes import buckled_eye, eye
-from meshes._discrete import corner_jacobians
+from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
+from eyeball_fenicsx.meshing.builders import buckled_eye, eye
+from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 
 COMM = MPI.COMM_WORLD
 N_CIRC = 16

@@ -12,7 +12,7 @@ from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch, sphere_pressure
-from eyeball_fenicsx.cavity import Injection, LiquidCavity
+from eyeball_fenicsx.features.cavity import Injection, LiquidCavity
 
 A, B = 1.0, 2.0
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
@@ -184,7 +184,7 @@ def test_retinal_break_and_drainage(shared_tmp):
     and draining half of the subretinal liquid halves the space while the vitreous keeps its
     liquid: its volume changes only by the liquid law's -V dp / K."""
     from test_scenes import read_summary, scene_file
-    from eyeball_fenicsx.scenefile import load_scene
+    from eyeball_fenicsx.scene.loader import load_scene
     load_scene(scene_file(shared_tmp, BREAK_SCENE)).run(shared_tmp)
     steps = {s["name"]: s["cavities"] for s in read_summary(shared_tmp)["steps"]}
     fill, close, drain = steps["fill"], steps["close"], steps["drain"]

@@ -7,16 +7,16 @@ from mpi4py import MPI
 
 from conftest import REPO
 from eyeball_fenicsx.analytic import layered_sphere_growth, wall_volume_change
-from eyeball_fenicsx.measures import MMHG_PER_MPA
-from eyeball_fenicsx.scenefile import load_scene
-from meshes.eye import scleral_wall
+from eyeball_fenicsx.output.measures import MMHG_PER_MPA
+from eyeball_fenicsx.scene.loader import load_scene
+from eyeball_fenicsx.meshing.builders.eye import scleral_wall
 
 SCENE = os.path.join(REPO, "demos", "eye_at_rest.toml")
 
 
 def at_rest(comm):
     """The scene's last step, its tissues' constants, and its vitreous' wall as the mesh builds
-    it (``meshes.eye.scleral_wall``, from the scene's own mesh parameters)."""
+    it (``eyeball_fenicsx.meshing.builders.eye.scleral_wall``, from the scene's own mesh parameters)."""
     scene = load_scene(SCENE, comm, overrides={"mesh.n_circ": 16})
     scene.log = lambda message: None
     materials = {tissue: law.c for tissue, law in scene.materials.items() if hasattr(law, "c")}

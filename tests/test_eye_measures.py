@@ -14,12 +14,12 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.formulation import MixedSolid
-from eyeball_fenicsx.materials import NeoHooke
-from eyeball_fenicsx.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
-from eyeball_fenicsx.mesh import built_mesh
-from eyeball_fenicsx.scenefile import load_scene
-from meshes import buckled_eye, eye
+from eyeball_fenicsx.mechanics.solid import MixedSolid
+from eyeball_fenicsx.mechanics.materials import NeoHooke
+from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
+from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.scene.loader import load_scene
+from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from test_scenes import read_summary, scene_file
 
 COMM = MPI.COMM_WORLD

@@ -1,4 +1,4 @@
-"""The eye mesh (meshes/eye.py): tissues, surfaces, quality, closed cavities and anatomical sizes.
+"""The eye mesh (eyeball_fenicsx/meshing/builders/eye.py): tissues, surfaces, quality, closed cavities and anatomical sizes.
 
 Runs in serial and under ``mpirun -n 2``: the meshes are built on rank 0 and distributed, every
 check is collective, and lists of facets are gathered on rank 0 to count edge incidences.
@@ -13,10 +13,10 @@ import ufl
 from mpi4py import MPI
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.eye import eye_section_png
-from eyeball_fenicsx.mesh import built_mesh, load_mesh
-from meshes import eye
-from meshes._discrete import corner_jacobians
+from eyeball_fenicsx.output.eye_pictures import eye_section_png
+from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
+from eyeball_fenicsx.meshing.builders import eye
+from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 
 COMM = MPI.COMM_WORLD
 TISSUES = {"cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule"}

@@ -5,7 +5,7 @@ from mpi4py import MPI
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch, uniaxial_nominal_stress
-from eyeball_fenicsx.scene import Step
+from eyeball_fenicsx.scene.scene import Step
 
 # Mooney-Rivlin with higher-order terms (values of the order of soft tissue, MPa)
 COEFFICIENTS = {(1, 0): 0.4, (0, 1): 0.1, (2, 0): 0.05, (1, 1): 0.02, (0, 2): 0.01}

@@ -5,7 +5,7 @@ from petsc4py import PETSc
 
 import eyeball_fenicsx as ef
 from dolfinx.fem.petsc import assemble_matrix
-from eyeball_fenicsx.cavity import LiquidCavity
+from eyeball_fenicsx.features.cavity import LiquidCavity
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
 

@@ -9,8 +9,8 @@ from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_pressure, uniaxial_nominal_stress
-from eyeball_fenicsx.cavity import LiquidCavity
-from eyeball_fenicsx.solver import PREFIX, STAGNATION_WINDOW
+from eyeball_fenicsx.features.cavity import LiquidCavity
+from eyeball_fenicsx.system.newton import PREFIX, STAGNATION_WINDOW
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
 ROLLERS = [ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}), ef.Dirichlet("z0", {"z": 0.0})]

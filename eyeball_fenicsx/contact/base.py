@@ -40,7 +40,7 @@ from petsc4py import PETSc
 
 from dolfinx import fem
 
-from ..feature import Feature
+from ..features.base import Feature
 from .law import pressure
 from .policy import ACTIVE_RANGE, AITKEN_BOUNDS, AUGMENT_DEPTH, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
 from .surface import check_penalty

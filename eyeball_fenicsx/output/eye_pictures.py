@@ -6,7 +6,7 @@ import numpy as np
 from dolfinx import cpp
 
 from .measures import DETACHED_GAP, polar_angle
-from .output import plot_curves, save_figure_atomic
+from .files import plot_curves, save_figure_atomic
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
 TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body": "sienna", "choroid": "firebrick",
@@ -20,7 +20,7 @@ def meridional_section(mesh_data, tolerance=1e-9, solid=None, field=None):
 
     Args:
         mesh_data: a :class:`~eyeball_fenicsx.mesh.MeshData` of hexahedra whose nodes lie exactly on
-            y = 0 where the section cuts them (true of ``meshes.eye``).
+            y = 0 where the section cuts them (true of ``eyeball_fenicsx.meshing.builders.eye``).
         tolerance: distance (mesh units) under which a node is on the plane.
         solid: if given, the faces are drawn in its current (deformed) configuration.
         field: a cell-wise (DG0) function whose value each face takes (von Mises stress).
@@ -66,7 +66,7 @@ def eye_section_png(mesh_data, path, title=None):
     Collective; rank 0 writes the file.
 
     Args:
-        mesh_data: the eye mesh (:func:`meshes.eye.build_eye` through ``built_mesh``).
+        mesh_data: the eye mesh (:func:`eyeball_fenicsx.meshing.builders.eye.build_eye` through ``built_mesh``).
         path: the .png file to write.
         title: optional title of the figure.
     """
@@ -165,7 +165,7 @@ def eye_measures_png(steps, path):
         steps: summary.json's "steps"; those without an "eye" entry are left out.
         path: the .png file to write.
     """
-    from .sweep import flatten
+    from ..scene.sweep import flatten
     steps = [step for step in steps if "eye" in step]
     if not steps:
         return

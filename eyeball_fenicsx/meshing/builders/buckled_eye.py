@@ -1,11 +1,11 @@
-"""The eye of meshes/eye.py with a scleral buckle: an encircling silicone band, a silicone tire, or both.
+"""The eye of eyeball_fenicsx/meshing/builders/eye.py with a scleral buckle: an encircling silicone band, a silicone tire, or both.
 
 One gmsh model holds the eye (its tissues, surfaces and optional retinal detachment, unchanged) and
 the buckle's bodies, all 8-node hexahedra. The buckle does not share a single node with the eye:
 each body is its own mesh, a small clearance ``gap`` away from the body under it, so that contact
 (eyeball_fenicsx/contact/) closes the gap and carries the load.
 
-**Geometry.** As in meshes/eye.py the optic axis is z, the corneal apex at +z, the origin the
+**Geometry.** As in eyeball_fenicsx/meshing/builders/eye.py the optic axis is z, the corneal apex at +z, the origin the
 centre of the sclera, whose outer surface is the sphere of radius R_o from the optic nerve to the
 limbus. The buckle lies on that sphere; a point of it is given by its polar angle theta measured
 from the posterior pole (z = -r cos theta, rho = r sin theta), and its azimuth phi from the x axis.
@@ -28,7 +28,7 @@ from the posterior pole (z = -r cos theta, rho = r sin theta), and its azimuth p
   ring all around, resting on the tire where the tire is and standing height + gap clear of the
   sclera elsewhere (tightening brings it down).
 
-Physical groups: the eye's volumes and surfaces (meshes/eye.py), then the volumes "tire" and
+Physical groups: the eye's volumes and surfaces (eyeball_fenicsx/meshing/builders/eye.py), then the volumes "tire" and
 "band" and their surfaces "tire_inner", "tire_outer", "tire_front" (toward the cornea),
 "tire_back" (toward the posterior pole), "tire_end_0" and "tire_end_1" (the ends of a segmental
 tire, at its smaller and larger azimuth), "band_inner", "band_outer", "band_front", "band_back".
@@ -46,7 +46,7 @@ cut plane is kept with ``share`` 1/2 (its mirror image holds the other half): dr
 the buckle with a single suture azimuth, whose two strings meet the buckle in one meridian and
 leave it free to slide along the sclera before contact holds it (a singular tangent).
 
-Usage: ``python3 -m meshes.buckled_eye --out buckled.msh [--tire 4 1 360 0] [--detachment 20 0.1]``
+Usage: ``python3 -m eyeball_fenicsx.meshing.builders.buckled_eye --out buckled.msh [--tire 4 1 360 0] [--detachment 20 0.1]``
 """
 import argparse
 import dataclasses
@@ -60,16 +60,16 @@ import numpy as np
 from eyeball_fenicsx.errors import SceneError
 
 from . import eye as _eye
-from ._discrete import add_hex_model, boundary_quads, check, corner_jacobians, hex_grid, run_cli, write_msh
+from .hexes import add_hex_model, boundary_quads, check, corner_jacobians, hex_grid, run_cli, write_msh
 
 # An encircling element is secured to the sclera 12-13 mm behind the limbus (J. Ophthalmol. 2016, article
 # 3578617, a finite element study of the encircling band's width); an FE study of the band's position took
 # 11.5 (anterior), 12.6 (equatorial), 13.7 and 14.8 mm (posterior) behind the limbus (ARVO abstract, IOVS,
-# iovs.arvojournals.org article 2745536). In the default eye of meshes/eye.py the equator is 12.95 mm behind
+# iovs.arvojournals.org article 2745536). In the default eye of eyeball_fenicsx/meshing/builders/eye.py the equator is 12.95 mm behind
 # the limbus.
 BAND_POSITION = 12.5
 # A 240 band is 2.5 mm wide; a 41 band 3.5 mm, a 42 band 4 mm (Read & Hahn, "Pearls for scleral buckling
-# with tunnels", Retina Specialist). 0.6 mm: the thickness of the band in meshes/band.py.
+# with tunnels", Retina Specialist). 0.6 mm: the thickness of the band in eyeball_fenicsx/meshing/builders/band.py.
 BAND_WIDTH, BAND_THICKNESS = 2.5, 0.6
 GAP = 0.02
 # Mattress sutures are placed 1 mm beyond each edge of the element, "so that the indent occurs when the buckle
@@ -160,7 +160,7 @@ def _eye_parameters(eye_parameters):
 
 
 def _grid_azimuths(n_circ, sector_deg):
-    """The eye's node azimuths (rad): 2 pi k / n_circ over the model's sector, as meshes/eye.py."""
+    """The eye's node azimuths (rad): 2 pi k / n_circ over the model's sector, as eyeball_fenicsx/meshing/builders/eye.py."""
     sectors = round(n_circ * sector_deg / 360.0)
     return 2 * np.pi * np.arange(sectors + (0 if sector_deg >= 360.0 else 1)) / n_circ
 
@@ -332,7 +332,7 @@ def buckled_eye_geometry(**parameters):
     """The buckled eye as numpy arrays (see :func:`build_buckled_eye` for the parameters).
 
     Returns:
-        ``(eye_mesh, layout)``: an ``meshes.eye.EyeMesh`` holding the eye and the buckle (its
+        ``(eye_mesh, layout)``: an ``eyeball_fenicsx.meshing.builders.eye.EyeMesh`` holding the eye and the buckle (its
         ``regions`` and ``surfaces`` extended, its ``info`` with the buckle's statistics), and the
         :class:`BuckleLayout`.
     """
@@ -381,7 +381,7 @@ def buckled_eye_geometry(**parameters):
 
 def build_buckled_eye(band_width=BAND_WIDTH, band_thickness=BAND_THICKNESS, band_position=BAND_POSITION, tire=None,
                       gap=GAP, n_band_thick=2, n_band_width=4, band=None, **eye_parameters):
-    """Add the gmsh model "buckled_eye": the eye of meshes/eye.py and a scleral buckle (module docstring).
+    """Add the gmsh model "buckled_eye": the eye of eyeball_fenicsx/meshing/builders/eye.py and a scleral buckle (module docstring).
 
     Call on the rank that owns gmsh, with gmsh initialized.
 
@@ -397,7 +397,7 @@ def build_buckled_eye(band_width=BAND_WIDTH, band_thickness=BAND_THICKNESS, band
         gap: initial clearance between the buckle and the sclera, and between band and tire, 0.02 mm.
         n_band_thick, n_band_width: the band's elements through its thickness and across its width.
         band: build the band (default: yes, but over a segmental tire).
-        **eye_parameters: the eye's parameters (meshes.eye.build_eye), passed through; a
+        **eye_parameters: the eye's parameters (eyeball_fenicsx.meshing.builders.eye.build_eye), passed through; a
             ``detachment`` without "polar_deg" is centred under the buckle.
 
     Returns:
@@ -513,7 +513,7 @@ def _build_from_cli(tire=None, detachment=None, **parameters):
 
 def main(argv=None):
     """Command-line entry point: write a buckled eye mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.buckled_eye", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.buckled_eye", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="the .msh file to write")
     parser.add_argument("--band-width", dest="band_width", type=float, default=BAND_WIDTH)
     parser.add_argument("--band-thickness", dest="band_thickness", type=float, default=BAND_THICKNESS)

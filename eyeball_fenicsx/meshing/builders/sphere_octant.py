@@ -6,7 +6,7 @@ e_p + tan(s) e_q + tan(t) e_r, (p, q, r) cyclic, with s, t in [0, pi/4] in n equ
 patches meet along the arcs x = y, y = z, z = x and at the point (1, 1, 1)/sqrt(3). The surface mesh is
 extruded radially: every node lies on a sphere r = r_k, k = 0 .. layers.
 
-Usage: ``/usr/bin/python3 -m meshes.sphere_octant --out octant.msh --n 16 --layers 8``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.sphere_octant --out octant.msh --n 16 --layers 8``
 """
 import argparse
 
@@ -14,7 +14,7 @@ import numpy as np
 
 from eyeball_fenicsx.errors import SceneError
 
-from ._discrete import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
 
 _SYMMETRY_PLANES = ("sym_x", "sym_y", "sym_z")
 
@@ -123,7 +123,7 @@ def write(path, **options):
 
 def main(argv=None):
     """Command-line entry point: write a shell-octant mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.sphere_octant", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.sphere_octant", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="the .msh file to write")
     parser.add_argument("--inner-radius", type=float, default=1.0)
     parser.add_argument("--outer-radius", type=float, default=2.0)

@@ -1,6 +1,6 @@
 """Structured hexahedral mesh of the box [0, Lx] x [0, Ly] x [0, Lz].
 
-Usage: ``/usr/bin/python3 -m meshes.block --out block.msh --lengths 1 1 1 --divisions 4 4 4``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.block --out block.msh --lengths 1 1 1 --divisions 4 4 4``
 """
 import argparse
 
@@ -8,7 +8,7 @@ import numpy as np
 
 from eyeball_fenicsx.errors import SceneError
 
-from ._discrete import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
 
 # Surface physical groups by the side of the box they cover: "x0" is the face x = 0, etc.
 _SIDES = {"x0": "u-", "x1": "u+", "y0": "v-", "y1": "v+", "z0": "w-", "z1": "w+"}
@@ -52,7 +52,7 @@ def write(path, **options):
 
 def main(argv=None):
     """Command-line entry point: write a block mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.block", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.block", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="the .msh file to write")
     parser.add_argument("--lengths", type=float, nargs=3, default=(1.0, 1.0, 1.0), metavar=("LX", "LY", "LZ"))
     parser.add_argument("--divisions", type=int, nargs=3, default=(4, 4, 4), metavar=("NX", "NY", "NZ"))

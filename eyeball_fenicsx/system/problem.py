@@ -29,7 +29,7 @@ from petsc4py import PETSc
 from dolfinx import fem
 from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, set_bc
 
-from .formulation import JacobianGuard, MixedSolid
+from ..mechanics.solid import JacobianGuard, MixedSolid
 
 
 class Problem:

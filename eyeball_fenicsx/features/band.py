@@ -12,9 +12,9 @@ from mpi4py import MPI
 
 from dolfinx import fem
 
-from .errors import SceneError
-from .feature import Feature
-from .materials import Prestretched
+from ..errors import SceneError
+from .base import Feature
+from ..mechanics.materials import Prestretched
 
 
 class BandTightening(Feature):

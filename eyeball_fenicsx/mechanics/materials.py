@@ -9,7 +9,7 @@ import math
 
 import ufl
 
-from .errors import SceneError
+from ..errors import SceneError
 from .kinematics import green_lagrange, reduced_invariants
 
 

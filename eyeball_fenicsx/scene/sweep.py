@@ -14,7 +14,7 @@ import tomllib
 import tomli_w
 from mpi4py import MPI
 
-from .errors import ConvergenceError, SceneError
+from ..errors import ConvergenceError, SceneError
 
 
 def set_parameter(data, path, value):
@@ -49,8 +49,8 @@ def flatten(entries, prefix=""):
 
 def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
     """Run the variants; write sweep.csv and sweep.png; return the rows."""
-    from .output import write_text_atomic
-    from .scenefile import load_scene
+    from ..output.files import write_text_atomic
+    from .loader import load_scene
     if not os.path.isfile(scene_path):
         raise SceneError(f"scene file {scene_path} does not exist")
     with open(scene_path, "rb") as f:
@@ -93,7 +93,7 @@ def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
 
 
 def _plot(rows, parameter, path):
-    from .output import plot_curves
+    from ..output.files import plot_curves
     numeric = [c for c in rows[0] if c not in (parameter, "ok", "wall_s")
                and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
     if any(c.startswith("eye.") for c in numeric):

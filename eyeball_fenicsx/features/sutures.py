@@ -23,9 +23,9 @@ from petsc4py import PETSc
 
 from dolfinx import cpp
 
-from .errors import SceneError
-from .feature import Feature
-from .formulation import MaterialNode
+from ..errors import SceneError
+from .base import Feature
+from ..mechanics.solid import MaterialNode
 
 SUTURE_EA = 40.0  # N, 5-0 polyester (see the module docstring)
 

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from .errors import ConvergenceError, SceneError
+from ..errors import ConvergenceError, SceneError
 
 
 @dataclasses.dataclass

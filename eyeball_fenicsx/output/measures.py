@@ -16,7 +16,7 @@
 With a buckle (the name of its inner surface, "band_inner" or "tire_inner"):
 
 * ``buckle_height_mm``: how deep the buckle indents the sclera. Over the nodes of the sclera's
-  outer surface ("sclera_outer": in meshes/eye.py all of it is on the sphere about the origin,
+  outer surface ("sclera_outer": in eyeball_fenicsx/meshing/builders/eye.py all of it is on the sphere about the origin,
   from the optic nerve to the limbus, so no node needs leaving out) the radial displacement
   u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes *around* the
   buckle minus the least u_r of the nodes *under* it. Under: the reference polar angle (seen
@@ -30,7 +30,7 @@ With a buckle (the name of its inner surface, "band_inner" or "tire_inner"):
   below the 0.5 to 1.5 mm of a buckle (docs/published_figures.md, section 4).
 
 With a detachment (the retina's outer surface "retina_outer" and the choroid's inner surface
-"choroid_inner", the two faces of the subretinal gap of meshes/eye.py):
+"choroid_inner", the two faces of the subretinal gap of eyeball_fenicsx/meshing/builders/eye.py):
 
 * ``retina_gap_max_mm``: the largest gap, in the current configuration. The gap at a node of
   the retina is its distance from the tangent plane of the choroid at the choroid's nearest
@@ -69,9 +69,9 @@ from scipy.spatial import cKDTree
 from dolfinx import fem, la
 from dolfinx.fem.petsc import assemble_vector
 
-from .errors import SceneError
-from .feature import Feature
-from .formulation import MaterialNode
+from ..errors import SceneError
+from ..features.base import Feature
+from ..mechanics.solid import MaterialNode
 
 MMHG_PER_MPA = 7500.62
 DIOPTRES_PER_MM = -2.7

@@ -5,7 +5,7 @@ The node columns are equally spaced in x; each column is divided equally between
 edge y = 44 x / 48 and the upper edge y = 44 + 16 x / 48, so every element is a trapezoid in the
 (x, y) plane and the mesh represents the straight-sided panel exactly at every refinement.
 
-Usage: ``/usr/bin/python3 -m meshes.cook --out cook.msh --divisions 16 16 1``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.cook --out cook.msh --divisions 16 16 1``
 """
 import argparse
 
@@ -13,7 +13,7 @@ import numpy as np
 
 from eyeball_fenicsx.errors import SceneError
 
-from ._discrete import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
 
 # Surface physical groups by the side of the panel they cover.
 _SIDES = {"clamped": "u-", "loaded": "u+", "bottom": "v-", "top": "v+", "z0": "w-", "z1": "w+"}
@@ -65,7 +65,7 @@ def write(path, **options):
 
 def main(argv=None):
     """Command-line entry point: write a Cook's membrane mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.cook", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.cook", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="the .msh file to write")
     parser.add_argument("--divisions", type=int, nargs=3, default=(16, 16, 1), metavar=("NX", "NY", "NZ"))
     parser.add_argument("--thickness", type=float, default=1.0)

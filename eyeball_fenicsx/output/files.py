@@ -31,7 +31,7 @@ class Probes:
             # the lowest rank that holds the point evaluates it
             owner = solid.comm.allreduce(solid.comm.rank if len(cells) else solid.comm.size, op=MPI.MIN)
             if owner == solid.comm.size:
-                from .errors import SceneError
+                from ..errors import SceneError
                 raise SceneError(f"probe {name!r}: point {list(point)} is not inside the mesh {solid.mesh_data.source}")
             self.cells[name] = (x, cells[0] if solid.comm.rank == owner else None, owner)
 

@@ -19,7 +19,7 @@ from dolfinx import cpp as _cpp
 from dolfinx.io import gmshio
 from mpi4py import MPI
 
-from .errors import SceneError
+from ..errors import SceneError
 
 # Supported gmsh volume element types -> (name, gmsh type of their facets, local nodes of each face).
 _VOLUME_TYPES = {
@@ -40,7 +40,7 @@ class MeshData:
         surfaces: surface physical-group name -> tag (same on every rank).
         source: file path or builder name, for error messages.
         parameters: the builder's parameters, as given (empty for a mesh file): what an
-            estimate of the geometry needs (``meshes.eye.scleral_wall``).
+            estimate of the geometry needs (``eyeball_fenicsx.meshing.builders.eye.scleral_wall``).
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -331,7 +331,7 @@ def _tags(mesh, dim, entities, values):
 
 
 def built_mesh(build, comm=MPI.COMM_WORLD, **options):
-    """Run a gmsh builder (``meshes.*.build_*``) on rank 0 and distribute its mesh."""
+    """Run a gmsh builder (``eyeball_fenicsx.meshing.builders.*.build_*``) on rank 0 and distribute its mesh."""
     import gmsh
     source = f"builder {build.__name__}"
     if comm.rank == 0:

@@ -35,7 +35,7 @@ Extensions beyond the contract (documented in README.md):
   (the faces of the subretinal gap, "retina_outer" and "choroid_inner") for
   ``retina_gap_max_mm``, ``detached_area_mm2``, ``retina_penetration_max_mm`` and
   ``penetrated_area_mm2``;
-* ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (meshes/eye.py, band.py, buckled_eye.py);
+* ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (eyeball_fenicsx/meshing/builders/eye.py, band.py, buckled_eye.py);
 * ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``tension`` or ``shortening``,
   ``stiffness``, ``step``): sutures generated from the buckled eye's geometry, each tying a
   sclera bite ``width / 2`` from the buckle's centre line to the buckle's top edge; they are
@@ -46,19 +46,19 @@ import tomllib
 
 from mpi4py import MPI
 
-from .buckle import BandTightening
-from .cavity import Drainage, Injection, LiquidCavity
-from .errors import SceneError
-from .loads import Dirichlet, NodalForce, Pressure
-from .measures import EyeMeasures
+from ..features.band import BandTightening
+from ..features.cavity import Drainage, Injection, LiquidCavity
+from ..errors import SceneError
+from ..features.loads import Dirichlet, NodalForce, Pressure
+from ..output.measures import EyeMeasures
 from .scene import Scene, Step
-from .scenetables import Table, contact_table, material_table, mesh_table, table_array
-from .stepping import SolverSettings
-from .sutures import Suture
+from .tables import Table, contact_table, material_table, mesh_table, table_array
+from ..system.stepping import SolverSettings
+from ..features.sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
              "solver", "step", "injection", "suture", "band", "eye", "buckle_sutures", "tissues"}
-TISSUE_SETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tissues")
+TISSUE_SETS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tissues")
 
 
 def tissue_set(name, path):
@@ -224,7 +224,7 @@ def load_scene(path, comm=MPI.COMM_WORLD, overrides=None) -> Scene:
             raise t.error('needs [mesh] builder = "buckled_eye" (the sutures follow its buckle)')
         if t.has("tension") == t.has("shortening"):
             raise t.error("give exactly one of tension or shortening")
-        from meshes.buckled_eye import suture_points
+        from ..meshing.builders.buckled_eye import suture_points
         parameters = {k: v for k, v in mesh.items() if k != "builder"}
         where = {"count": t.get("count", "integer", 4), "suture_width": t.get("width", "positive"),
                  "azimuth_deg": t.get("azimuths", "numbers")}

@@ -24,15 +24,15 @@ import time
 
 from mpi4py import MPI
 
-from .errors import ConvergenceError, SceneError
-from .eye import eye_measures_png, retina_gap_png, stress_section_png
-from .formulation import MixedSolid
-from .loads import Dirichlet
-from .measures import EyeMeasures
-from .output import FieldOutput, Probes, write_json_atomic
-from .problem import Problem
-from .solver import NewtonSolver
-from .stepping import SolverSettings, run_step
+from ..errors import ConvergenceError, SceneError
+from ..output.eye_pictures import eye_measures_png, retina_gap_png, stress_section_png
+from ..mechanics.solid import MixedSolid
+from ..features.loads import Dirichlet
+from ..output.measures import EyeMeasures
+from ..output.files import FieldOutput, Probes, write_json_atomic
+from ..system.problem import Problem
+from ..system.newton import NewtonSolver
+from ..system.stepping import SolverSettings, run_step
 
 
 @dataclasses.dataclass

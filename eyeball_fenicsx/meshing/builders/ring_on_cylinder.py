@@ -12,7 +12,7 @@ The bodies share no node. Physical groups: volumes "cylinder" and "ring"; surfac
 "<body>_inner", "_outer", "_back" (z = 0), "_front" (z = length) and, for a sector, "_cut_0"
 (theta = 0) and "_cut_1" (theta = sector), body "cylinder" or "ring".
 
-Usage: ``/usr/bin/python3 -m meshes.ring_on_cylinder --out ring.msh --n-circ 24 --sector 90``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.ring_on_cylinder --out ring.msh --n-circ 24 --sector 90``
 """
 import argparse
 import math
@@ -21,7 +21,7 @@ import numpy as np
 
 from eyeball_fenicsx.errors import SceneError
 
-from ._discrete import add_hex_model, boundary_quads, check, hex_grid, run_cli
+from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli
 
 
 def _annulus(inner, outer, length, angles, closed, n_radial, n_length):
@@ -96,7 +96,7 @@ def build_ring_on_cylinder(**parameters):
 
 def main(argv=None):
     """Command-line entry point: write a ring-on-cylinder mesh."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.ring_on_cylinder", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.ring_on_cylinder", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True)
     parser.add_argument("--radius", type=float, default=10.0)
     parser.add_argument("--bore", type=float, default=5.0)

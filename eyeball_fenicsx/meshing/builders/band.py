@@ -5,13 +5,13 @@ test band tightening. Nodes are placed in cylindrical coordinates; a full ring (
 360``) is periodic, a sector 0 <= theta <= sector has the cut faces "cut_0" (theta = 0) and
 "cut_1" (theta = sector).
 
-Usage: ``/usr/bin/python3 -m meshes.band --out band.msh --inner-radius 12 --thickness 0.6 --width 2.5``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.band --out band.msh --inner-radius 12 --thickness 0.6 --width 2.5``
 """
 import argparse
 
 import numpy as np
 
-from ._discrete import add_hex_model, boundary_quads, check, hex_grid, run_cli
+from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli
 
 
 def band_geometry(inner_radius, thickness, width, z_center=0.0, n_circ=64, n_thick=2, n_width=4, sector=360.0):

@@ -5,9 +5,9 @@ from mpi4py import MPI
 
 from dolfinx import fem
 
-from .errors import SceneError
-from .feature import Feature
-from .formulation import MaterialNode
+from ..errors import SceneError
+from .base import Feature
+from ..mechanics.solid import MaterialNode
 
 AXES = {"x": 0, "y": 1, "z": 2}
 

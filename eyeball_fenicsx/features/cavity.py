@@ -43,8 +43,8 @@ from petsc4py import PETSc
 from dolfinx import cpp, fem
 from dolfinx.fem.petsc import assemble_vector
 
-from .errors import SceneError
-from .feature import Feature
+from ..errors import SceneError
+from .base import Feature
 
 AXES = {"x": 0, "y": 1, "z": 2}
 

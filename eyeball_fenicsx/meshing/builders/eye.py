@@ -44,7 +44,7 @@ Physical groups: the volumes "cornea", "sclera", "ciliary_body", "choroid", "ret
 posterior chamber, there is no iris), with a detachment "retina_outer" and "choroid_inner", and in
 a wedge model "cut_0" (plane azimuth 0) and "cut_1" (plane azimuth ``sector_deg``).
 
-Usage: ``/usr/bin/python3 -m meshes.eye --out eye.msh [--sector-deg 180] [--detachment 60 0 30 0.1]``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.eye --out eye.msh [--sector-deg 180] [--detachment 60 0 30 0.1]``
 """
 import argparse
 import dataclasses
@@ -60,7 +60,7 @@ from scipy.spatial import cKDTree
 
 from eyeball_fenicsx.errors import SceneError
 
-from ._discrete import HEX_FACES, add_hex_model, check, corner_jacobians, hex_grid, run_cli, write_msh
+from .hexes import HEX_FACES, add_hex_model, check, corner_jacobians, hex_grid, run_cli, write_msh
 
 # --- anatomy (mm) -----------------------------------------------------------------------------
 # Le Grand full theoretical eye, in Atchison & Smith, Optics of the Human Eye (2000), appendix A:
@@ -790,7 +790,7 @@ def add_eye_arguments(parser):
 
 def main(argv=None):
     """Command-line entry point: write an eye mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m meshes.eye", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.eye", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="the .msh file to write")
     add_eye_arguments(parser)
     parser.add_argument("--detachment", type=float, nargs=4,

@@ -4,9 +4,9 @@
 import math
 import os
 
-from .errors import SceneError
-from .materials import LinearElastic, MooneyRivlin, NeoHooke
-from .mesh import built_mesh, load_mesh
+from ..errors import SceneError
+from ..mechanics.materials import LinearElastic, MooneyRivlin, NeoHooke
+from ..meshing.load import built_mesh, load_mesh
 
 
 class Table:
@@ -115,7 +115,7 @@ RIGID_SHAPES = {"plane": {"point", "normal"}, "sphere": {"center", "radius"},
 
 def contact_table(t: Table, step_of):
     """A [[contact]] table -> (feature, surfaces it names)."""
-    from .contact import ContactPair, RigidContact
+    from ..contact import ContactPair, RigidContact
     name = t.get("name", "string", required=True)
     slave = t.get("slave", "string", required=True)
     penalty = t.get("penalty", "positive")
@@ -166,7 +166,7 @@ def mesh_table(table: Table, directory, comm):
         except SceneError as error:  # the mesh's own checks: gmsh reads it, named groups, supported elements
             raise table.error(str(error)) from None
     builder = table.get("builder", "string", required=False)
-    from meshes import band, block, buckled_eye, eye, sphere_octant
+    from ..meshing.builders import band, block, buckled_eye, eye, sphere_octant
     builders = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant,
                 "eye": eye.build_eye, "band": band.build_band, "buckled_eye": buckled_eye.build_buckled_eye}
     if builder not in builders:

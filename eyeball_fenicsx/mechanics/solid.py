@@ -19,12 +19,16 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx import fem
+from dolfinx import fem, jit
 from dolfinx.mesh import compute_midpoints
 
-from .errors import SceneError
+from ..errors import SceneError
 from .kinematics import cauchy_stress, deformation_gradient, von_mises
 from .materials import MooneyRivlin
+
+# A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
+# up after 10 s, too short for the eye's forms on a busy two-core machine.
+jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"] = (600, jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"][1])
 
 # name -> (displacement degree, pressure family, pressure degree). Q2P1 is the quadratic
 # hexahedron with a discontinuous linear pressure (DPC1), the optimal inf-sup stable pair.
