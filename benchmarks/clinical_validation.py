@@ -33,11 +33,11 @@ import time
 
 import numpy as np
 from mpi4py import MPI
-
-from eyeball_fenicsx.output.measures import ocular_rigidity
-from eyeball_fenicsx.output.files import save_figure_atomic, write_json_atomic, write_text_atomic
-from eyeball_fenicsx.scene.loader import load_scene
 from provenance import machine_record
+
+from eyeball_fenicsx.output.files import save_figure_atomic, write_json_atomic, write_text_atomic
+from eyeball_fenicsx.output.measures import ocular_rigidity
+from eyeball_fenicsx.scene.loader import load_scene
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEMOS = os.path.join(HERE, "..", "demos")

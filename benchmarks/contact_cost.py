@@ -48,8 +48,8 @@ import eyeball_fenicsx as ef
 from eyeball_fenicsx.contact import ContactPair
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
-from test_contact import blocks_mesh  # noqa: E402  (the tests' builder of separate boxes)
 from provenance import run_record  # noqa: E402
+from test_contact import blocks_mesh  # noqa: E402  (the tests' builder of separate boxes)
 
 SYMBOLIC = ["MatCholFctrSym", "MatLUFactorSym"]
 # what the solver asks of a contact feature besides search and assembly

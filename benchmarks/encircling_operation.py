@@ -30,10 +30,10 @@ import time
 
 from mpi4py import MPI
 from petsc4py import PETSc
+from provenance import run_record
 
 from eyeball_fenicsx.contact import ContactPair
 from eyeball_fenicsx.scene.loader import load_scene
-from provenance import run_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))

@@ -23,10 +23,10 @@ import os
 import time
 
 from mpi4py import MPI
+from provenance import run_record
 
 from eyeball_fenicsx.errors import ConvergenceError
 from eyeball_fenicsx.scene.loader import load_scene
-from provenance import run_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))

@@ -44,22 +44,20 @@ import time
 
 import numpy as np
 import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import NonlinearProblem, assemble_matrix, assemble_vector, create_matrix, create_vector, set_bc
+from dolfinx.mesh import compute_midpoints, meshtags
 from mpi4py import MPI
 from petsc4py import PETSc
-
-from dolfinx import fem
-from dolfinx.fem.petsc import (NonlinearProblem, assemble_matrix, assemble_vector, create_matrix,
-                               create_vector, set_bc)
-from dolfinx.mesh import compute_midpoints, meshtags
-
-import eyeball_fenicsx as ef
-from eyeball_fenicsx.mechanics.solid import MixedSolid
-from eyeball_fenicsx.meshing.load import built_mesh
-from eyeball_fenicsx.system.newton import DEFAULT_OPTIONS, PREFIX
-from eyeball_fenicsx.features.sutures import Suture
-from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
 from provenance import run_record
 from sphere_scaling import busy_cores, event_seconds, wait_for_quiet
+
+import eyeball_fenicsx as ef
+from eyeball_fenicsx.features.sutures import Suture
+from eyeball_fenicsx.mechanics.solid import MixedSolid
+from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.system.newton import DEFAULT_OPTIONS, PREFIX
 
 comm = MPI.COMM_WORLD
 C10, P, P_OUTER = 0.5, 0.6, 0.01

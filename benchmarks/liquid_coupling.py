@@ -25,12 +25,12 @@ import time
 
 from mpi4py import MPI
 from petsc4py import PETSc
+from provenance import run_record
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.features.cavity import LiquidCavity
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
-from provenance import run_record
+from eyeball_fenicsx.meshing.load import built_mesh
 
 comm = MPI.COMM_WORLD
 SYMMETRY = [("sym_x", "x"), ("sym_y", "y"), ("sym_z", "z")]

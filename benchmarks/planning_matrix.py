@@ -51,12 +51,12 @@ import tomllib
 
 import tomli_w
 from mpi4py import MPI
+from provenance import machine_record
 
 from eyeball_fenicsx.errors import ConvergenceError, SceneError
 from eyeball_fenicsx.output.files import write_json_atomic, write_text_atomic
 from eyeball_fenicsx.scene.loader import load_scene
 from eyeball_fenicsx.scene.sweep import set_parameter
-from provenance import machine_record
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))

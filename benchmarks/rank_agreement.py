@@ -20,9 +20,9 @@ import sys
 import time
 import tomllib
 
+import provenance
 import tomli_w
 
-import provenance
 from eyeball_fenicsx.scene.sweep import set_parameter
 
 HERE = os.path.dirname(os.path.abspath(__file__))

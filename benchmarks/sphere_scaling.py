@@ -53,17 +53,16 @@ import os
 import shutil
 import tempfile
 
-from mpi4py import MPI
-
 import dolfinx.jit
+from mpi4py import MPI
 from petsc4py import PETSc
+from provenance import run_record
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch
+from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
 from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.system.newton import PREFIX
-from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
-from provenance import run_record
 
 comm = MPI.COMM_WORLD
 A, B, P = 1.0, 2.0, 0.6

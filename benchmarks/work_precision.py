@@ -45,26 +45,25 @@ import json
 import math
 import os
 
+import dolfinx
 import numpy as np
 import ufl
-from mpi4py import MPI
-from scipy.optimize import brentq
-
-import dolfinx
 from dolfinx import fem
 from dolfinx.io import gmshio
+from mpi4py import MPI
+from provenance import run_record
+from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch, sphere_pressure
-from eyeball_fenicsx.features.cavity import LiquidCavity
 from eyeball_fenicsx.contact import RigidContact
 from eyeball_fenicsx.features.base import Feature
-from eyeball_fenicsx.meshing.load import MeshData, built_mesh
-from eyeball_fenicsx.output.files import write_text_atomic
+from eyeball_fenicsx.features.cavity import LiquidCavity
 from eyeball_fenicsx.meshing.builders.block import build_block
 from eyeball_fenicsx.meshing.builders.cook import TIP, build_cook
 from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant, layer_radii, octant_directions
-from provenance import run_record
+from eyeball_fenicsx.meshing.load import MeshData, built_mesh
+from eyeball_fenicsx.output.files import write_text_atomic
 
 comm = MPI.COMM_WORLD
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")

@@ -42,11 +42,11 @@ from mpi4py import MPI
 
 from eyeball_fenicsx.analytic import wall_volume_change
 from eyeball_fenicsx.features.cavity import Injection
+from eyeball_fenicsx.meshing.builders.eye import scleral_wall
 from eyeball_fenicsx.output.eye_pictures import eye_section_png, stress_section_png
 from eyeball_fenicsx.output.measures import MMHG_PER_MPA, EyeMeasures
-from eyeball_fenicsx.scene.scene import Step
 from eyeball_fenicsx.scene.loader import load_scene
-from eyeball_fenicsx.meshing.builders.eye import scleral_wall
+from eyeball_fenicsx.scene.scene import Step
 
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.environ.get("DEMO_OUT", os.path.join("out", "eye_at_rest"))

@@ -35,8 +35,8 @@ from mpi4py import MPI
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import hertz_layer_force
 from eyeball_fenicsx.contact import RigidContact
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.meshing.builders.block import build_block
+from eyeball_fenicsx.meshing.load import built_mesh
 
 c10, R, d = 0.5, 10.0, 0.1  # MPa, mm, mm
 mu = 2 * c10

@@ -29,8 +29,8 @@ from mpi4py import MPI
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_pressure
 from eyeball_fenicsx.features.cavity import Injection, LiquidCavity
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.meshing.load import built_mesh
 
 A, B, c10, K = 1.0, 1.1, 0.5, 1.0e3
 stages, final_stretch = int(os.environ.get("STAGES", 8)), 1.8

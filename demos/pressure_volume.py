@@ -28,8 +28,8 @@ import os
 import numpy as np
 from mpi4py import MPI
 
-from eyeball_fenicsx.output.measures import ocular_rigidity
 from eyeball_fenicsx.output.files import save_figure_atomic
+from eyeball_fenicsx.output.measures import ocular_rigidity
 from eyeball_fenicsx.scene.loader import load_scene
 
 here = os.path.dirname(os.path.abspath(__file__))

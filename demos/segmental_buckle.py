@@ -22,8 +22,8 @@ import os
 import numpy as np
 from mpi4py import MPI
 
-from eyeball_fenicsx.scene.loader import load_scene
 from eyeball_fenicsx.features.sutures import Suture
+from eyeball_fenicsx.scene.loader import load_scene
 
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.environ.get("DEMO_OUT", os.path.join("out", "segmental_buckle"))

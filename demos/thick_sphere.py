@@ -26,8 +26,8 @@ from mpi4py import MPI
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.meshing.load import built_mesh
 
 A, B, P = 1.0, 2.0, 0.6
 c = {(1, 0): 0.5}  # neo-Hooke, c10 = 0.5 (shear modulus 1)

@@ -4,9 +4,9 @@ import os
 import pytest
 from mpi4py import MPI
 
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.meshing.builders.block import build_block
 from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant
+from eyeball_fenicsx.meshing.load import built_mesh
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

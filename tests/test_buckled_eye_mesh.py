@@ -15,9 +15,9 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
+from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 
 COMM = MPI.COMM_WORLD
 N_CIRC = 16

@@ -184,6 +184,7 @@ def test_retinal_break_and_drainage(shared_tmp):
     and draining half of the subretinal liquid halves the space while the vitreous keeps its
     liquid: its volume changes only by the liquid law's -V dp / K."""
     from test_scenes import read_summary, scene_file
+
     from eyeball_fenicsx.scene.loader import load_scene
     load_scene(scene_file(shared_tmp, BREAK_SCENE)).run(shared_tmp)
     steps = {s["name"]: s["cavities"] for s in read_summary(shared_tmp)["steps"]}

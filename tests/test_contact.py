@@ -6,11 +6,22 @@ from mpi4py import MPI
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import hertz_layer_force
-from eyeball_fenicsx.contact import (Cylinder, ContactPair, Quad, RigidContact, Sphere, Triangle, candidate_pairs,
-                                     patches, pressure, project, traction)
+from eyeball_fenicsx.contact import (
+    ContactPair,
+    Cylinder,
+    Quad,
+    RigidContact,
+    Sphere,
+    Triangle,
+    candidate_pairs,
+    patches,
+    pressure,
+    project,
+    traction,
+)
 from eyeball_fenicsx.contact.policy import PENALTY_FACTOR
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.meshing.builders.hexes import HEXAHEDRON, QUADRANGLE, boundary_quads, hex_grid
+from eyeball_fenicsx.meshing.load import built_mesh
 
 _SIDES = {"x0": "u-", "x1": "u+", "y0": "v-", "y1": "v+", "z0": "w-", "z1": "w+"}
 

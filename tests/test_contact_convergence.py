@@ -23,12 +23,12 @@ from mpi4py import MPI
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import hertz_layer_force, uniaxial_nominal_stress
-from eyeball_fenicsx.features.band import BandTightening
 from eyeball_fenicsx.contact import ContactPair, RigidContact
 from eyeball_fenicsx.contact.policy import PENALTY_FACTOR
-from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.features.band import BandTightening
 from eyeball_fenicsx.meshing.builders.hexes import add_hex_model, boundary_quads, hex_grid
 from eyeball_fenicsx.meshing.builders.ring_on_cylinder import build_ring_on_cylinder, ring_on_cylinder_geometry
+from eyeball_fenicsx.meshing.load import built_mesh
 
 COMM = MPI.COMM_WORLD
 _SIDES = {"x0": "u-", "y0": "v-", "z0": "w-", "z1": "w+"}

@@ -4,9 +4,8 @@ import os
 import runpy
 
 import pytest
-from mpi4py import MPI
-
 from conftest import REPO
+from mpi4py import MPI
 
 # demo -> (environment for a quick run, [(result variable, upper bound or (lower, upper))])
 DEMOS = {

@@ -13,17 +13,16 @@ import os
 
 import numpy as np
 import pytest
+from dolfinx import fem
 from mpi4py import MPI
 from scipy.optimize import brentq
 
-from dolfinx import fem
-
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_pressure, uniaxial_nominal_stress
-from eyeball_fenicsx.features.cavity import LiquidCavity
 from eyeball_fenicsx.contact import RigidContact
-from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.features.cavity import LiquidCavity
 from eyeball_fenicsx.meshing.builders.hexes import add_hex_model, boundary_quads, corner_jacobians, hex_grid
+from eyeball_fenicsx.meshing.load import built_mesh
 
 A, B = 1.0, 2.0
 ROLLERS = [ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}), ef.Dirichlet("z0", {"z": 0.0})]

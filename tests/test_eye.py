@@ -3,13 +3,13 @@ import os
 
 import numpy as np
 import pytest
+from conftest import REPO
 from mpi4py import MPI
 
-from conftest import REPO
 from eyeball_fenicsx.analytic import layered_sphere_growth, wall_volume_change
+from eyeball_fenicsx.meshing.builders.eye import scleral_wall
 from eyeball_fenicsx.output.measures import MMHG_PER_MPA
 from eyeball_fenicsx.scene.loader import load_scene
-from eyeball_fenicsx.meshing.builders.eye import scleral_wall
 
 SCENE = os.path.join(REPO, "demos", "eye_at_rest.toml")
 

@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 from scipy.spatial import cKDTree
+from test_scenes import read_summary, scene_file
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.mechanics.solid import MixedSolid
 from eyeball_fenicsx.mechanics.materials import NeoHooke
-from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
-from eyeball_fenicsx.meshing.load import built_mesh
-from eyeball_fenicsx.scene.loader import load_scene
+from eyeball_fenicsx.mechanics.solid import MixedSolid
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
-from test_scenes import read_summary, scene_file
+from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
+from eyeball_fenicsx.scene.loader import load_scene
 
 COMM = MPI.COMM_WORLD
 # A detachment centred on the posterior pole: whole rings of faces, its rim on the cap's circle.

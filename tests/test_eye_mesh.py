@@ -13,10 +13,10 @@ import ufl
 from mpi4py import MPI
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.output.eye_pictures import eye_section_png
-from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 from eyeball_fenicsx.meshing.builders import eye
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
+from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
+from eyeball_fenicsx.output.eye_pictures import eye_section_png
 
 COMM = MPI.COMM_WORLD
 TISSUES = {"cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule"}

@@ -18,7 +18,6 @@ import sys
 
 import pytest
 from mpi4py import MPI
-
 from test_scenes import BLOCK, CAVITY, INVALID, NEO_HOOKE, OCTANT, ROLLERS, assert_one_line_error, write_text
 
 COMM = MPI.COMM_WORLD

@@ -1,10 +1,10 @@
 """A scene assembles only what it holds: no cavity, contact or suture, no cost for them."""
 import numpy as np
+from dolfinx.fem.petsc import assemble_matrix
 from mpi4py import MPI
 from petsc4py import PETSc
 
 import eyeball_fenicsx as ef
-from dolfinx.fem.petsc import assemble_matrix
 from eyeball_fenicsx.features.cavity import LiquidCavity
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]

@@ -14,8 +14,8 @@ import ufl
 from mpi4py import MPI
 
 from eyeball_fenicsx.errors import SceneError
-from eyeball_fenicsx.meshing.load import built_mesh, load_mesh, mesh_from_gmsh_model
 from eyeball_fenicsx.meshing.builders import block, sphere_octant
+from eyeball_fenicsx.meshing.load import built_mesh, load_mesh, mesh_from_gmsh_model
 
 COMM = MPI.COMM_WORLD
 

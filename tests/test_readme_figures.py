@@ -18,7 +18,6 @@ import sys
 import tomllib
 
 import pytest
-
 from conftest import REPO
 
 sys.path.insert(0, os.path.join(REPO, "benchmarks"))

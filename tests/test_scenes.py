@@ -15,15 +15,15 @@ import tomllib
 import gmsh
 import numpy as np
 import pytest
+from conftest import REPO
 from mpi4py import MPI
 from scipy.optimize import minimize_scalar
 
-from conftest import REPO
 from eyeball_fenicsx import cli
 from eyeball_fenicsx.analytic import sphere_inner_stretch, sphere_pressure, uniaxial_nominal_stress
+from eyeball_fenicsx.meshing.builders import block, sphere_octant
 from eyeball_fenicsx.output.files import write_json_atomic
 from eyeball_fenicsx.scene.loader import load_scene
-from eyeball_fenicsx.meshing.builders import block, sphere_octant
 
 COMM = MPI.COMM_WORLD
 DEMOS = os.path.join(REPO, "demos")

@@ -7,9 +7,9 @@ from scipy.optimize import brentq
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import uniaxial_nominal_stress
 from eyeball_fenicsx.features.band import BandTightening
-from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.features.sutures import Suture
 from eyeball_fenicsx.meshing.builders.band import build_band
+from eyeball_fenicsx.meshing.load import built_mesh
 
 C = {(1, 0): 0.4, (0, 1): 0.1}
 CORNERS = [[1.0, y, z] for y in (0.0, 1.0) for z in (0.0, 1.0)]

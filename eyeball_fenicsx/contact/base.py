@@ -35,14 +35,21 @@ import dataclasses
 import time
 
 import numpy as np
+from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx import fem
-
 from ..features.base import Feature
 from .law import pressure
-from .policy import ACTIVE_RANGE, AITKEN_BOUNDS, AUGMENT_DEPTH, MAX_AUGMENTATIONS, ONSET_DEPTH, ONSET_ITERATIONS, OPEN_RANGE
+from .policy import (
+    ACTIVE_RANGE,
+    AITKEN_BOUNDS,
+    AUGMENT_DEPTH,
+    MAX_AUGMENTATIONS,
+    ONSET_DEPTH,
+    ONSET_ITERATIONS,
+    OPEN_RANGE,
+)
 from .surface import check_penalty
 
 _ADD = PETSc.InsertMode.ADD_VALUES

@@ -4,11 +4,10 @@ import dataclasses
 
 import numpy as np
 import ufl
-from mpi4py import MPI
-from petsc4py import PETSc
-
 from dolfinx import cpp, fem
 from dolfinx.fem.petsc import assemble_vector
+from mpi4py import MPI
+from petsc4py import PETSc
 
 from ..errors import SceneError
 from .geometry import Quad, Triangle

@@ -8,13 +8,12 @@ C - Delta; on the eye it squeezes the sclera through contact, and its tension fo
 """
 import numpy as np
 import ufl
+from dolfinx import fem
 from mpi4py import MPI
 
-from dolfinx import fem
-
 from ..errors import SceneError
-from .base import Feature
 from ..mechanics.materials import Prestretched
+from .base import Feature
 
 
 class BandTightening(Feature):

@@ -1,13 +1,12 @@
 """Boundary conditions: prescribed displacement, follower pressure, nodal forces."""
 import numpy as np
 import ufl
+from dolfinx import fem
 from mpi4py import MPI
 
-from dolfinx import fem
-
 from ..errors import SceneError
-from .base import Feature
 from ..mechanics.solid import MaterialNode
+from .base import Feature
 
 AXES = {"x": 0, "y": 1, "z": 2}
 

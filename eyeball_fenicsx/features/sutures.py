@@ -18,14 +18,13 @@ Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E 
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
 """
 import numpy as np
+from dolfinx import cpp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx import cpp
-
 from ..errors import SceneError
-from .base import Feature
 from ..mechanics.solid import MaterialNode
+from .base import Feature
 
 SUTURE_EA = 40.0  # N, 5-0 polyester (see the module docstring)
 

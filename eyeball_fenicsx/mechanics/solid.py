@@ -16,11 +16,10 @@ import dataclasses
 
 import numpy as np
 import ufl
-from mpi4py import MPI
-from petsc4py import PETSc
-
 from dolfinx import fem, jit
 from dolfinx.mesh import compute_midpoints
+from mpi4py import MPI
+from petsc4py import PETSc
 
 from ..errors import SceneError
 from .kinematics import cauchy_stress, deformation_gradient, von_mises

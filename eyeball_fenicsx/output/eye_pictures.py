@@ -2,11 +2,10 @@
 the retina's gap from the choroid over a detachment, and the eye measures over the steps of a
 run. Files appear atomically (output.py)."""
 import numpy as np
-
 from dolfinx import cpp
 
-from .measures import DETACHED_GAP, polar_angle
 from .files import plot_curves, save_figure_atomic
+from .measures import DETACHED_GAP, polar_angle
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
 TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body": "sienna", "choroid": "firebrick",

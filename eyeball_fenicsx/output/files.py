@@ -9,9 +9,8 @@ import os
 import shutil
 
 import numpy as np
-from mpi4py import MPI
-
 from dolfinx import fem, geometry, io
+from mpi4py import MPI
 
 
 class Probes:

@@ -62,12 +62,11 @@ The retina's gap map (``retina_gap_map``) feeds the picture ``retina_gap_<step>.
 """
 import numpy as np
 import ufl
+from dolfinx import fem, la
+from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 from scipy.spatial import cKDTree
-
-from dolfinx import fem, la
-from dolfinx.fem.petsc import assemble_vector
 
 from ..errors import SceneError
 from ..features.base import Feature

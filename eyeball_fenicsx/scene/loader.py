@@ -46,15 +46,15 @@ import tomllib
 
 from mpi4py import MPI
 
+from ..errors import SceneError
 from ..features.band import BandTightening
 from ..features.cavity import Drainage, Injection, LiquidCavity
-from ..errors import SceneError
 from ..features.loads import Dirichlet, NodalForce, Pressure
+from ..features.sutures import Suture
 from ..output.measures import EyeMeasures
+from ..system.stepping import SolverSettings
 from .scene import Scene, Step
 from .tables import Table, contact_table, material_table, mesh_table, table_array
-from ..system.stepping import SolverSettings
-from ..features.sutures import Suture
 
 TOP_LEVEL = {"name", "mesh", "materials", "dirichlet", "pressure", "force", "cavity", "contact", "probe",
              "solver", "step", "injection", "suture", "band", "eye", "buckle_sutures", "tissues"}

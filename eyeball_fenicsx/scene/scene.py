@@ -25,13 +25,13 @@ import time
 from mpi4py import MPI
 
 from ..errors import ConvergenceError, SceneError
-from ..output.eye_pictures import eye_measures_png, retina_gap_png, stress_section_png
-from ..mechanics.solid import MixedSolid
 from ..features.loads import Dirichlet
-from ..output.measures import EyeMeasures
+from ..mechanics.solid import MixedSolid
+from ..output.eye_pictures import eye_measures_png, retina_gap_png, stress_section_png
 from ..output.files import FieldOutput, Probes, write_json_atomic
-from ..system.problem import Problem
+from ..output.measures import EyeMeasures
 from ..system.newton import NewtonSolver
+from ..system.problem import Problem
 from ..system.stepping import SolverSettings, run_step
 
 

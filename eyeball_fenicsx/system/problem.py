@@ -23,11 +23,10 @@ liquid law: a volume).
 """
 import numpy as np
 import ufl
-from mpi4py import MPI
-from petsc4py import PETSc
-
 from dolfinx import fem
 from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, set_bc
+from mpi4py import MPI
+from petsc4py import PETSc
 
 from ..mechanics.solid import JacobianGuard, MixedSolid
 
