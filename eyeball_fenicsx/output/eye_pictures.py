@@ -4,7 +4,7 @@ run. Files appear atomically (output.py)."""
 import numpy as np
 from dolfinx import cpp
 
-from .files import plot_curves, save_figure_atomic
+from .files import flatten, plot_curves, save_figure_atomic
 from .measures import DETACHED_GAP, polar_angle
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
@@ -164,7 +164,6 @@ def eye_measures_png(steps, path):
         steps: summary.json's "steps"; those without an "eye" entry are left out.
         path: the .png file to write.
     """
-    from ..scene.sweep import flatten
     steps = [step for step in steps if "eye" in step]
     if not steps:
         return

@@ -132,3 +132,16 @@ def plot_curves(path, x, curves, xlabel, xticklabels=None):
     figure.tight_layout()
     save_figure_atomic(figure, path, dpi=110)
     plt.close(figure)
+
+
+def flatten(entries, prefix=""):
+    """{"a": 1, "b": {"c": 2}, "d": [3, 4]} -> {"a": 1, "b.c": 2, "d.0": 3, "d.1": 4}."""
+    flat = {}
+    for key, value in entries.items():
+        if isinstance(value, list):
+            value = dict(enumerate(value))
+        if isinstance(value, dict):
+            flat.update(flatten(value, f"{prefix}{key}."))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat

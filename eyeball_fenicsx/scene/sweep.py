@@ -15,6 +15,7 @@ import tomli_w
 from mpi4py import MPI
 
 from ..errors import ConvergenceError, SceneError
+from ..output.files import flatten
 
 
 def set_parameter(data, path, value):
@@ -32,19 +33,6 @@ def set_parameter(data, path, value):
         raise SceneError(f"sweep: parameter {path!r} is not in the scene (no {last!r}); "
                          f"that table has {sorted(node)}")
     node[last] = value
-
-
-def flatten(entries, prefix=""):
-    """{"a": 1, "b": {"c": 2}, "d": [3, 4]} -> {"a": 1, "b.c": 2, "d.0": 3, "d.1": 4}."""
-    flat = {}
-    for key, value in entries.items():
-        if isinstance(value, list):
-            value = dict(enumerate(value))
-        if isinstance(value, dict):
-            flat.update(flatten(value, f"{prefix}{key}."))
-        else:
-            flat[f"{prefix}{key}"] = value
-    return flat
 
 
 def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
