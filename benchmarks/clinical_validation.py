@@ -27,7 +27,6 @@ curve and the band-width trend), with the commit, the hardware and the date.
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 benchmarks/clinical_validation.py [--n-circ 40]
 """
 import argparse
-import json
 import os
 import time
 
@@ -123,7 +122,8 @@ def main():
                                   "during depression and cryopexy: Gardner et al. 1993)" if "IOP" in name else
                                   "the issue's aim: at least 0.9", "why_not": ""})
 
-    segmental, wall = run("segmental_buckle.toml", os.path.join(args.out, "segmental"), {**mesh, "tissues": "calibrated"})
+    segmental, wall = run("segmental_buckle.toml", os.path.join(args.out, "segmental"),
+                          {**mesh, "tissues": "calibrated"})
     eye = steps_eye(segmental)
     runs["segmental"] = {"wall_s": wall, "eye": eye}
     figures.append(figure("segmental: axial length change after suturing (mm)", eye["suture"]["axial_length_change_mm"],
@@ -157,7 +157,8 @@ def main():
         left.legend(fontsize=8)
         w = sorted(widths)
         right.plot(w, [widths[x]["suture"]["refraction_change_D"] for x in w], "o-", label="model")
-        right.plot(sorted(LANCHARES), [LANCHARES[x] for x in sorted(LANCHARES)], "s--", label="Lanchares et al. 2016 (FE)")
+        right.plot(sorted(LANCHARES), [LANCHARES[x] for x in sorted(LANCHARES)], "s--",
+                   label="Lanchares et al. 2016 (FE)")
         right.set_xlabel("band width (mm)")
         right.set_ylabel("refraction change after suturing (D)")
         right.legend(fontsize=8)

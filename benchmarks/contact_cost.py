@@ -12,8 +12,7 @@ the slowest rank, every cost that contact causes:
   selection and projection inside them and the zeros reserved in the matrix after a search;
 * other calls: what the solver asks of the contact feature besides (``step_fraction``, the
   onset limiter of the line search; ``tangent_outdated``, a collective before reusing a
-  factorization; ``augment``, ``set_increment``, ``set_load_factor``, ``state_changed``,
-  ``begin_step``);
+  factorization; ``augment``, ``set_increment``, ``set_load_factor``, ``begin_step``);
 * re-preallocation: a new matrix when the candidate pairs leave the pattern (the rest of
   ``NewtonSolver.update_pattern``: the keys, the coupling, ``_create_matrix``, the KSP reset);
 * new symbolic factorizations: a new pattern needs a new MUMPS analysis; without contact there
@@ -24,10 +23,10 @@ the slowest rank, every cost that contact causes:
   the contact search, assembly and calls inside them are counted above, not again.
 
 "contact %" is the sum of the first five over the wall time of ``Scene.run``; "+ augm. %"
-adds the re-solves' own work (less the contact inside them); "of Newton %" is search + assembly over the Newton solves (the measure
-this benchmark reported before, kept to compare); "gather" is the part of search, assembly
-and the other calls spent gathering the master surface's displacements, which includes
-waiting for the other ranks.
+adds the re-solves' own work (less the contact inside them); "of Newton %" is search + assembly
+over the Newton solves (the measure this benchmark reported before, kept to compare); "gather"
+is the part of search, assembly and the other calls spent gathering the master surface's
+displacements, which includes waiting for the other ranks.
 
     mpirun -n 2 python3 benchmarks/contact_cost.py [--sizes 6 12 18]
 
@@ -46,6 +45,7 @@ from petsc4py import PETSc
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.contact import ContactPair
+from eyeball_fenicsx.output.console import silence
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
 from provenance import run_record  # noqa: E402
@@ -53,8 +53,7 @@ from test_contact import blocks_mesh  # noqa: E402  (the tests' builder of separ
 
 SYMBOLIC = ["MatCholFctrSym", "MatLUFactorSym"]
 # what the solver asks of a contact feature besides search and assembly
-OTHER_CALLS = ["step_fraction", "tangent_outdated", "augment", "set_increment", "set_load_factor", "state_changed",
-               "begin_step"]
+OTHER_CALLS = ["step_fraction", "tangent_outdated", "augment", "set_increment", "set_load_factor", "begin_step"]
 
 comm = MPI.COMM_WORLD
 
@@ -79,18 +78,23 @@ def timed(function, spent, key, minus=None):
 def run(n):
     """Solve one size; return its measurements."""
     layers = max(n // 2, 1)
-    axis = lambda k, lo=0.0, hi=1.0: np.linspace(lo, hi, k + 1)
+
+    def axis(k, lo=0.0, hi=1.0):
+        return np.linspace(lo, hi, k + 1)
+
     mesh = blocks_mesh(("lower", axis(n), axis(n), axis(layers, 0.0, 0.5)),
                        ("upper", axis(n + 1), axis(n + 1), axis(layers, 0.5, 1.0)))
     pair = ContactPair("interface", slave="upper_z0", master="lower_z1")
     scene = ef.Scene("contact-cost", mesh, {"lower": ef.NeoHooke(0.5), "upper": ef.NeoHooke(0.5)},
                      features=[ef.Dirichlet("lower_z0", {"x": 0.0, "y": 0.0, "z": 0.0}),
                                ef.Dirichlet("upper_z1", {"x": 0.1, "y": 0.0, "z": -0.05}), pair],
-                     solver=ef.SolverSettings(increments=8), log=lambda message: None)
+                     solver=ef.SolverSettings(increments=8))
     scene.build()
     spent = {"newton": 0.0, "augmented_newton": 0.0, "contact_in_augmented": 0.0, "pattern": 0.0, "other_calls": 0.0}
     solve = scene.newton.solve
-    contact_so_far = lambda: pair.timing["search"] + pair.timing["assembly"] + spent["other_calls"]
+
+    def contact_so_far():
+        return pair.timing["search"] + pair.timing["assembly"] + spent["other_calls"]
 
     def timed_solve(x, **kwargs):  # every Newton solve, those of increments cut back included
         start, contact = time.perf_counter(), contact_so_far()
@@ -118,7 +122,10 @@ def run(n):
     analyses = symbolic_after[0] - symbolic_before[0]
     analysis_s = symbolic_after[1] - symbolic_before[1]
     increments = summary["steps"][-1]["increments"]
-    slowest = lambda seconds: comm.allreduce(seconds, op=MPI.MAX)
+
+    def slowest(seconds):
+        return comm.allreduce(seconds, op=MPI.MAX)
+
     contact = summary["steps"][-1]["contact"]["interface"]
     row = {
         "n": n,
@@ -154,6 +161,7 @@ def run(n):
 
 
 def main():
+    silence()  # no line per load increment: the tables say it
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[6, 12, 18])
     parser.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "contact_cost.json"))
@@ -179,7 +187,8 @@ def main():
                   f"{r['assembly_s']:>8.3f} {r['other_calls_s']:>6.3f} {r['repreallocation_s']:>8.3f} "
                   f"{r['symbolic_factorizations']:>4} {r['new_symbolic_factorizations_s']:>9.3f} "
                   f"{r['augmentation_resolves_s']:>7.2f} {100 * r['contact_share']:>9.1f} "
-                  f"{100 * r['contact_share_with_augmentation']:>9.1f} {100 * r['search_and_assembly_of_newton']:>11.1f} "
+                  f"{100 * r['contact_share_with_augmentation']:>9.1f} "
+                  f"{100 * r['search_and_assembly_of_newton']:>11.1f} "
                   f"{r['gather_s']:>8.3f}")
 
 

@@ -97,7 +97,8 @@ def run_once(n_circ, out):
                 contact[f"contact {key}"] = contact.get(f"contact {key}", 0.0) + \
                     comm.allreduce(seconds, op=MPI.SUM) / comm.size
     steps = [{"name": s["name"], "wall_s": sum(i["wall_s"] for i in s["increments"]),
-              "increments": len(s["increments"]), "newton_iterations": sum(i["newton_iterations"] for i in s["increments"]),
+              "increments": len(s["increments"]),
+              "newton_iterations": sum(i["newton_iterations"] for i in s["increments"]),
               "factorizations": sum(i["factorizations"] for i in s["increments"])} for s in summary["steps"]]
     setup_s = run_s - sum(s["wall_s"] for s in steps)  # forms, features, pattern, output, failed increments
     final = summary["steps"][-1]["eye"]

@@ -1,14 +1,15 @@
 """Work-precision of the eye: the axial length change under the encircling buckle against a
 much finer mesh (issue 7, the eye's row of the work-precision study).
 
-The scene is demos/encircling_buckle_seed.toml (Q1/P0) with the sutures tied at their rest length
-(so that the measure is the band's alone); the measure is the buckle's own effect, the axial length after "tighten" less the axial length after
-"pressurize", on meshes n_circ = 16, 24, 32, 40 (the default) and the reference n_circ given
-by ``--reference`` (default 56). ``wall_s`` is ``Scene.run`` (the slowest rank's), the mesh
-built and the forms compiled before. The rows, {problem: "eye axial length", element, n, cells,
-dofs, wall_s, value, error, ok, failure} as in benchmarks/results/work_precision.json, go to
-benchmarks/results/eye_axial_length.json under "rows" (with the run's commit, date, hardware
-and load under "run"), with a log-log plot of error against wall time
+The scene is demos/encircling_buckle_seed.toml (Q1/P0) with the sutures tied at their rest
+length (so that the measure is the band's alone); the measure is the buckle's own effect, the
+axial length after "tighten" less the axial length after "pressurize", on meshes n_circ = 16,
+24, 32, 40 (the default) and the reference n_circ given by ``--reference`` (default 56).
+``wall_s`` is ``Scene.run`` (the slowest rank's), the mesh built and the forms compiled before.
+The rows, {problem: "eye axial length", element, n, cells, dofs, wall_s, value, error, ok,
+failure} as in benchmarks/results/work_precision.json, go to
+benchmarks/results/eye_axial_length.json under "rows" (with the run's commit, date, hardware and
+load under "run"), with a log-log plot of error against wall time
 (benchmarks/results/eye_axial_length.png), and are printed.
 
 A size whose solve fails stays in the table, the JSON and the plot: marked FAILED, with the
@@ -26,6 +27,7 @@ from mpi4py import MPI
 from provenance import run_record
 
 from eyeball_fenicsx.errors import ConvergenceError
+from eyeball_fenicsx.output.console import silence
 from eyeball_fenicsx.scene.loader import load_scene
 
 comm = MPI.COMM_WORLD
@@ -39,7 +41,6 @@ def buckle_lengthening(n_circ, out):
     """One size: {n, cells, dofs, wall_s, value (the axial length change from 'pressurize' to
     'tighten', mm), ok, failure (the solver's message when a step did not converge, else None)}."""
     scene = load_scene(SCENE, overrides={"mesh.n_circ": n_circ, "buckle_sutures.shortening": 0.0})
-    scene.log = lambda message: None
     row = {"problem": PROBLEM, "element": "Q1P0", "n": n_circ, "cells": None, "dofs": None, "value": None,
            "ok": True, "failure": None}
     start = time.perf_counter()
@@ -85,6 +86,7 @@ def plot(rows, path):
 
 
 def main():
+    silence()  # no line per load increment: the tables say it
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[16, 24, 32, 40])
     parser.add_argument("--reference", type=int, default=56)

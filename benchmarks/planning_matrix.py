@@ -54,9 +54,10 @@ from mpi4py import MPI
 from provenance import machine_record
 
 from eyeball_fenicsx.errors import ConvergenceError, SceneError
+from eyeball_fenicsx.output.console import increment_lines, silence
 from eyeball_fenicsx.output.files import write_json_atomic, write_text_atomic
 from eyeball_fenicsx.scene.loader import load_scene
-from eyeball_fenicsx.scene.sweep import set_parameter
+from eyeball_fenicsx.scene.overrides import set_parameter
 
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -76,7 +77,7 @@ CHECKS = {"reduction": ("buckle_height_mm", "axial_length_change_mm", "iop_mmHg"
 @dataclasses.dataclass
 class Variant:
     """One scene with surgical parameters changed: ``changes`` are {dotted path: value}
-    (``sweep.set_parameter``); ``drain_mm3`` adds the drainage step."""
+    (``scene.overrides.set_parameter``); ``drain_mm3`` adds the drainage step."""
 
     name: str
     scene: str
@@ -129,7 +130,7 @@ def scene_data(variant, base, n_circ):
 
 
 class RunLog:
-    """The solver's messages (``Scene.log``), counted per step: Newton iterations of every attempt
+    """The load stepping's lines (``increment_lines``), counted per step: Newton iterations of every attempt
     (from a SNES monitor, booked to the step of the message that ends the attempt) and cut-backs."""
 
     def __init__(self, step_names, verbose):
@@ -166,10 +167,10 @@ def run_variant(variant, data, out_dir, verbose):
     try:
         scene = load_scene(path, comm)
         record["mesh_s"] = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
-        scene.log = log
         scene.build()
         scene.newton.snes.setMonitor(log.monitor)
-        summary = scene.run(out_dir)
+        with increment_lines(log):
+            summary = scene.run(out_dir)
     except (ConvergenceError, SceneError) as error:
         record.update(ok=False, error=str(error))
         summary = None
@@ -251,15 +252,16 @@ def write_results(stem, meta, matrix, records, checks):
     write_json_atomic(os.path.join(HERE, "results", f"{stem}.json"),
                       {**meta, "variants": {v.name: {"scene": v.scene, **records[v.name]} for v in done},
                        "checks": checks}, comm)
+    commit_of = {v.name: records[v.name].get("commit", meta["commit"]) for v in done}
+    dates = sorted({(commit_of[v.name], records[v.name].get("date", meta["date"])) for v in done}, key=lambda cd: cd[1])
     knobs = ("knobs stripped: " + ", ".join(meta["knobs_stripped"]) if meta["strip_knobs"]
              else "scenes as shipped (their own [solver] and contact settings)")
     lines = [f"# Planning matrix: {len(done)} variants, default solver settings",
              "",
              f"`benchmarks/planning_matrix.py`, n_circ {meta['n_circ']}, {knobs}; {meta['ranks']} ranks on "
              f"{meta['cores']} cores ({meta['cpu']}); rows from " + "; ".join(
-                 f"commit {c} ({d}): {', '.join(v.name for v in done if records[v.name].get('commit', meta['commit']) == c)}"
-                 for c, d in sorted({(records[v.name].get("commit", meta["commit"]), records[v.name].get("date", meta["date"]))
-                                     for v in done}, key=lambda cd: cd[1])) + ".",
+                 f"commit {c} ({d}): {', '.join(v.name for v in done if commit_of[v.name] == c)}"
+                 for c, d in dates) + ".",
              "Per step (a+b+c): converged increments, Newton iterations of every attempt, cut-backs. "
              "Predictions after the last step; load: the 1-minute load average before the variant.",
              "", table_header(), *(table_row(v.name, records[v.name]) for v in done), "",
@@ -279,11 +281,13 @@ def previous_records(stem, meta):
         previous = json.load(f)
     if previous["n_circ"] != meta["n_circ"] or previous["strip_knobs"] != meta["strip_knobs"]:
         raise SystemExit(f"--update: {path} holds another matrix (n_circ, strip_knobs)")
-    return {name: {"commit": previous["commit"], "date": previous["date"], **{k: v for k, v in record.items() if k != "scene"}}
+    return {name: {"commit": previous["commit"], "date": previous["date"],
+                   **{k: v for k, v in record.items() if k != "scene"}}
             for name, record in previous["variants"].items()}
 
 
 def main():
+    silence()  # the lines per load increment: printed by RunLog with --verbose
     matrix = variants()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n-circ", type=int, default=40, help="the eye's elements around (40: the default eye)")
@@ -293,7 +297,8 @@ def main():
     parser.add_argument("--out", default=os.path.join("out", "planning_matrix"), help="output folder, one per variant")
     parser.add_argument("--list", action="store_true", help="name the variants and exit")
     parser.add_argument("--update", action="store_true",
-                        help="with --only: keep the other variants' rows of the results file (each row keeps its commit)")
+                        help="with --only: keep the other variants' rows of the results file "
+                             "(each row keeps its commit)")
     parser.add_argument("--verbose", action="store_true", help="print the solver's messages")
     args = parser.parse_args()
     if args.list:
@@ -314,7 +319,8 @@ def main():
             bases[scene] = tomllib.load(f)
         if args.strip_knobs:
             stripped.update(f"{scene}: {key}" for key in strip_knobs(bases[scene]))
-    meta = {"benchmark": "planning_matrix", **machine_record(ranks=comm.size, n_circ=args.n_circ, strip_knobs=args.strip_knobs,
+    meta = {"benchmark": "planning_matrix", **machine_record(ranks=comm.size, n_circ=args.n_circ,
+                                                              strip_knobs=args.strip_knobs,
                                                               knobs_stripped=sorted(stripped))}
     stem = "planning_matrix_strip_knobs" if args.strip_knobs else "planning_matrix"
     if comm.rank == 0:

@@ -38,7 +38,8 @@ COMMIT_AT_START = commit()
 def machine_record(**extra):
     """The commit, the date and the hardware; ``extra`` adds the benchmark's own notes (settings,
     caveats). Not collective: for a benchmark that starts its runs itself."""
-    return {"commit": COMMIT_AT_START, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    now = datetime.datetime.now(datetime.timezone.utc)
+    return {"commit": COMMIT_AT_START, "date": now.isoformat(timespec="seconds"),
             **hardware(), **extra}
 
 

@@ -23,7 +23,7 @@ import tomllib
 import provenance
 import tomli_w
 
-from eyeball_fenicsx.scene.sweep import set_parameter
+from eyeball_fenicsx.scene.overrides import set_parameter
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
@@ -98,11 +98,13 @@ def main():
         reference = runs[args.ranks[0]]["measures"]
         for ranks, record in runs.items():
             if reference is not None and record["measures"] is not None:
-                record["max_relative_difference"], record["worst_measure"] = largest_difference(reference, record["measures"])
+                difference = largest_difference(reference, record["measures"])
+                record["max_relative_difference"], record["worst_measure"] = difference
             status = "converged" if record["ok"] else f"FAILED: {record['error']}"
             difference = record.get("max_relative_difference")
             rows.append(f"| {scene} | {ranks} | {status} | {record['wall_s']:.1f} | "
-                        f"{'-' if difference is None else f'{difference:.1e}'} | {record.get('worst_measure') or '-'} |")
+                        f"{'-' if difference is None else f'{difference:.1e}'} | "
+                        f"{record.get('worst_measure') or '-'} |")
             print(rows[-1], flush=True)
         results["scenes"][scene] = {str(k): v for k, v in runs.items()}
     stem = os.path.join(HERE, "results", "rank_agreement" + ("" if args.n_circ == 40 else f"_{args.n_circ}"))
@@ -110,9 +112,10 @@ def main():
         json.dump(results, f, indent=1)
     lines = [f"# The same eye on {', '.join(map(str, args.ranks))} ranks (n_circ {args.n_circ})", "",
              f"`benchmarks/rank_agreement.py`, commit {results['run']['commit']}, {results['run']['date']}, "
-             f"{results['run']['cpu']}, {results['run']['cores']} cores. Difference: the largest over every eye measure and contact force "
-             f"component of every step, relative to the {args.ranks[0]}-rank run.", "",
-             "| scene | ranks | status | wall s | max relative difference | measure |", "| --- | ---: | --- | ---: | ---: | --- |",
+             f"{results['run']['cpu']}, {results['run']['cores']} cores. Difference: the largest over every eye "
+             f"measure and contact force component of every step, relative to the {args.ranks[0]}-rank run.", "",
+             "| scene | ranks | status | wall s | max relative difference | measure |",
+             "| --- | ---: | --- | ---: | ---: | --- |",
              *rows]
     with open(stem + ".md", "w") as f:
         f.write("\n".join(lines) + "\n")

@@ -210,8 +210,7 @@ def sphere_scene(mesh, **settings):
     return ef.Scene("thick-sphere", mesh, {"wall": ef.MooneyRivlin(C)},
                     features=[ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}),
                               ef.Dirichlet("sym_z", {"z": 0.0}), ef.Pressure("inner", P)],
-                    probes={"inner": [A, 0.0, 0.0]}, solver=ef.SolverSettings(**settings),
-                    log=lambda message: None)
+                    probes={"inner": [A, 0.0, 0.0]}, solver=ef.SolverSettings(**settings))
 
 
 def timed_solve(scene, patience):

@@ -16,11 +16,12 @@ Problems (every one with an incompressible neo-Hooke solid, shear modulus 1, c10
   n/2 for a Richardson estimate of the reference's own error (the rows of the JSON whose
   ``role`` is "reference" and "reference check").
 * ``hertz``: a rigid sphere (R = 10) pressed d = 0.1 into a block (a quarter, 30 contact radii
-  a = (R d)^1/2 wide and deep, on a roller base) by penalty contact with its augmented Lagrangian (the defaults), as demos/hertz_indentation.py;
-  measured: the force; reference: Hertz, F = 16/3 mu R^1/2 d^3/2 (Johnson 1985, eq. 4.23,
-  incompressible), which is a half-space at small strain: the error levels off at the model's
-  own difference from it. Q1P0 only (contact needs first-order displacements). Mesh size n:
-  cells across 1.3 a, and as many growing geometrically to 30 a.
+  a = (R d)^1/2 wide and deep, on a roller base) by penalty contact with its augmented
+  Lagrangian (the defaults), as demos/hertz_indentation.py; measured: the force; reference:
+  Hertz, F = 16/3 mu R^1/2 d^3/2 (Johnson 1985, eq. 4.23, incompressible), which is a
+  half-space at small strain: the error levels off at the model's own difference from it.
+  Q1P0 only (contact needs first-order displacements). Mesh size n: cells across 1.3 a, and as
+  many growing geometrically to 30 a.
 
 The octant's meshes are trilinear: their curved surfaces are polyhedra, whose geometric
 error (O(h^2)) no displacement degree can beat. So on ``sphere`` Q2/P1 also runs on the same
@@ -37,8 +38,9 @@ fastest counts. Rates are between consecutive sizes: ``rate_h`` in the mesh size
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 benchmarks/work_precision.py
 
 writes benchmarks/results/work_precision.json ({"run": the commit, date, hardware and load;
-"rows"}), benchmarks/results/work_precision.png (log-log error against wall time) and prints the table and which element reaches a given
-accuracy first. ``--quick`` runs small sizes only (a smoke test, about a minute).
+"rows"}), benchmarks/results/work_precision.png (log-log error against wall time) and prints
+the table and which element reaches a given accuracy first. ``--quick`` runs small sizes only
+(a smoke test, about a minute).
 """
 import argparse
 import json
@@ -63,6 +65,7 @@ from eyeball_fenicsx.meshing.builders.block import build_block
 from eyeball_fenicsx.meshing.builders.cook import TIP, build_cook
 from eyeball_fenicsx.meshing.builders.sphere_octant import build_sphere_octant, layer_radii, octant_directions
 from eyeball_fenicsx.meshing.load import MeshData, built_mesh
+from eyeball_fenicsx.output.console import silence
 from eyeball_fenicsx.output.files import write_text_atomic
 
 comm = MPI.COMM_WORLD
@@ -188,7 +191,7 @@ def liquid_stretch():
 
 def solve(problem, mesh, element):
     """Build and run one case; return (summary, measured value, liquid pressure or None)."""
-    quiet = dict(solver=ef.SolverSettings(increments=2), element=element, log=lambda message: None)
+    quiet = dict(solver=ef.SolverSettings(increments=2), element=element)
     if problem == "hertz":
         top = 30 * HERTZ_A
         sphere = RigidContact("sphere", "z1", "sphere", center=[0.0, 0.0, top + HERTZ_R], radius=HERTZ_R,
@@ -352,6 +355,7 @@ def print_table(rows):
 
 
 def main():
+    silence()  # no line per load increment: the tables say it
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes only (smoke test)")
     parser.add_argument("--cook-reference", type=int, default=64, help="mesh size n of the Q2P1 reference")

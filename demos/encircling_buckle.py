@@ -116,6 +116,7 @@ if comm.rank == 0 and MPI.COMM_WORLD.rank == 0:
           f"{100 * eyes[-1]['reattached_fraction']:.0f} % of the detached retina; {subretinal['drained_volume']:.3f} "
           f"mm^3 drained, {eyes[-1]['subretinal_volume_mm3']:.3f} mm^3 left (half model)")
     first, last = summary["steps"][0]["eye"], summary["steps"][-1]["eye"]
-    print(f"the buckle (after 'pressurize'): axial length {last['axial_length_mm'] - first['axial_length_mm']:+.3f} mm, "
+    print(f"the buckle (after 'pressurize'): axial length "
+          f"{last['axial_length_mm'] - first['axial_length_mm']:+.3f} mm, "
           f"IOP {last['iop_mmHg'] - first['iop_mmHg']:+.1f} mmHg")
 # -

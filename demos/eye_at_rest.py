@@ -18,7 +18,8 @@
 #
 # **An independent estimate of the rigidity.** Seen from the centre of the sclera, the wall
 # around the vitreous is, direction by direction, concentric spherical layers (retina,
-# choroid, sclera; ciliary body and sclera in front of the ora serrata; `eyeball_fenicsx.meshing.builders.eye.scleral_wall`).
+# choroid, sclera; ciliary body and sclera in front of the ora serrata;
+# `eyeball_fenicsx.meshing.builders.eye.scleral_wall`).
 # For a closed spherical membrane, linear theory adds the directions independently and exactly:
 # the stress resultants are $N = pR/2$ whatever the thickness (Laplace's law, statically
 # determinate), each patch strains as its own thickness requires, and the volume change
@@ -76,7 +77,8 @@ axial = np.array([e["axial_length_mm"] for e in eye])
 iop_rise_min = np.min(np.diff(iop[:4]) / np.diff(injected[:4]))
 # the estimate (above) over the model's own pressures, its sclera and geometry
 materials = {tissue: law.c for tissue, law in scene.materials.items() if hasattr(law, "c")}
-estimated_volume = wall_volume_change(iop[0] / MMHG_PER_MPA, iop[3] / MMHG_PER_MPA, *scleral_wall(**scene.mesh.parameters), materials)
+estimated_volume = wall_volume_change(iop[0] / MMHG_PER_MPA, iop[3] / MMHG_PER_MPA,
+                                      *scleral_wall(**scene.mesh.parameters), materials)
 rigidity_estimate = np.log10(iop[3] / iop[0]) / estimated_volume
 rigidity_error = rigidity / rigidity_estimate - 1
 # consistency: the first step prescribes the IOP (the cavity is filled to it), so this reads it back
@@ -86,7 +88,7 @@ iop_readback_error = abs(iop[0] - 15.0)
 excursion = (iop[3] - iop[0], axial[3] - axial[0])
 injection_reversible = (max(abs(iop[-1] - iop[0]) / excursion[0], abs(axial[-1] - axial[0]) / excursion[1])
                         if min(excursion) > 0 else np.nan)
-measures = next(f for f in scene.features if isinstance(f, EyeMeasures))
+measures = next(o for o in scene.observers if isinstance(o, EyeMeasures))
 eye_section_png(scene.mesh, os.path.join(out, "eye_section.png"), title="eyeball-fenicsx eye model: meridional section")
 stress_section_png(scene.solid, measures.mises, os.path.join(out, "eye_at_rest_mises.png"),
                    title="at 15 mmHg: von Mises stress (MPa)")

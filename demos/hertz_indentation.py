@@ -37,6 +37,7 @@ from eyeball_fenicsx.analytic import hertz_layer_force
 from eyeball_fenicsx.contact import RigidContact
 from eyeball_fenicsx.meshing.builders.block import build_block
 from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.output.console import increment_lines
 
 c10, R, d = 0.5, 10.0, 0.1  # MPa, mm, mm
 mu = 2 * c10
@@ -81,10 +82,8 @@ sphere = RigidContact("sphere", "z1", "sphere", center=[0.0, 0.0, L + R], radius
 curve, histories = [], []
 
 
-def record(message):
-    if MPI.COMM_WORLD.rank == 0:
-        print(message)
-    if "failed" in message:  # an increment cut back: nothing converged to record
+def record(line):
+    if "failed" in line:  # an increment cut back: nothing converged to record
         return
     contact = sphere.report()  # collective
     curve.append((-sphere.shift[2], -4 * contact["force"][2], contact["max_penetration"]))  # 4 quarters
@@ -94,8 +93,9 @@ def record(message):
 scene = ef.Scene("hertz", mesh, {"solid": ef.NeoHooke(c10)},
                  features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
                            ef.Dirichlet("z0", {"z": 0.0}), sphere],
-                 solver=ef.SolverSettings(increments=6, growth=1.0, reuse_contraction=0.0), log=record)
-summary = scene.run(os.environ.get("DEMO_OUT"))
+                 solver=ef.SolverSettings(increments=6, growth=1.0, reuse_contraction=0.0))
+with increment_lines(record):  # each load increment's line, as the run logs it
+    summary = scene.run(os.environ.get("DEMO_OUT"))
 # -
 
 # ## Against Hertz
@@ -115,7 +115,8 @@ if MPI.COMM_WORLD.rank == 0:
     for row in zip(depth, force, hertz, force / hertz, penetration / depth):
         print("{:8.4f} {:9.5f} {:12.5f} {:7.4f} {:14.2e}".format(*row))
     print(f"force at d = {d}: {force[-1]:.5f} N, Hertz {hertz[-1]:.5f} N, error {100 * error:.2f}% "
-          f"({summary['cells']} hexahedra, {summary['steps'][-1]['contact']['sphere']['active_nodes']} nodes in contact)")
+          f"({summary['cells']} hexahedra, "
+          f"{summary['steps'][-1]['contact']['sphere']['active_nodes']} nodes in contact)")
     # Newton: the residual norm squares from one iteration to the next once the nodes in
     # contact stop changing
     print("Newton residual norms, last increment:", " ".join(f"{r:.1e}" for r in histories[-1]))

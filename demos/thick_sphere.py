@@ -21,7 +21,6 @@
 # +
 import os
 
-import numpy as np
 from mpi4py import MPI
 
 import eyeball_fenicsx as ef

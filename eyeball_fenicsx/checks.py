@@ -6,37 +6,39 @@ and what it must be. The scene tables (``scene/tables.py``) prefix it with the f
 the features and materials call the same checks for their Python API.
 """
 import math
+from numbers import Integral, Real
 
 from .errors import SceneError
 
-_BOUNDS = {"positive": (lambda v: v > 0, "positive"), "nonnegative": (lambda v: v >= 0, "non-negative"),
-           "fraction": (lambda v: 0 < v < 1, "in (0, 1)")}
+_BOUNDS = {"positive": (lambda v: v > 0, "be positive"), "nonnegative": (lambda v: v >= 0, "not be negative"),
+           "fraction": (lambda v: 0 < v < 1, "be in (0, 1)")}
 
 
-def _is_number(value) -> bool:
-    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+def is_number(value) -> bool:
+    """A finite real number (not a bool): the test every check of a number makes."""
+    return not isinstance(value, bool) and isinstance(value, Real) and math.isfinite(value)
 
 
-def number(value, what: str, sign: str = None) -> float:
+def number(value, what: str, sign: str | None = None) -> float:
     """A finite number; ``sign`` is None, "positive", "nonnegative" or "fraction" (0 < v < 1)."""
-    if not _is_number(value):
+    if not is_number(value):
         raise SceneError(f"{what} must be a finite number, got {value!r}")
     if sign is not None and not _BOUNDS[sign][0](value):
-        raise SceneError(f"{what} must be {_BOUNDS[sign][1]}, got {value!r}")
+        raise SceneError(f"{what} must {_BOUNDS[sign][1]}, got {value!r}")
     return float(value)
 
 
 def integer(value, what: str) -> int:
     """A positive integer."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < 1:
         raise SceneError(f"{what} must be a positive integer, got {value!r}")
     return value
 
 
-def numbers(value, what: str, length: int = None) -> list:
+def numbers(value, what: str, length: int | None = None) -> list:
     """A non-empty list of finite numbers (of ``length`` entries if given: 3 for a vector)."""
     if (not isinstance(value, (list, tuple)) or not value or (length is not None and len(value) != length)
-            or not all(_is_number(v) for v in value)):
+            or not all(is_number(v) for v in value)):
         count = f"{length} " if length is not None else ""
         raise SceneError(f"{what} must be a list of {count}finite numbers, got {value!r}")
     return [float(v) for v in value]
@@ -68,9 +70,12 @@ def flag(value, what: str) -> bool:
     return value
 
 
-def known(name, names, what: str, kind: str, plural: str):
+def known(name, names, what: str, kind: str, plural: str, *, assigned: bool = True, in_order: bool = False):
     """``name`` must be one of ``names``: ``kind`` says what they are ("[[cavity]] of the scene"),
-    ``plural`` lists them ("cavities")."""
+    ``plural`` lists them ("cavities"), sorted, or in their own order if ``in_order`` (the steps,
+    in the order they run). The message quotes the name as a key's value (``break_into =
+    'lens'``), or after what it names if not ``assigned`` (``step 'later'``)."""
     if name not in names:
-        raise SceneError(f"{what} = {name!r} is not a {kind} ({plural}: {sorted(names)})")
+        listed = list(names) if in_order else sorted(names)
+        raise SceneError(f"{what}{' =' if assigned else ''} {name!r} is not a {kind} ({plural}: {listed})")
     return name

@@ -3,6 +3,8 @@
 Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid;
 3 a step did not converge after the automatic cut-backs. Errors are one line on stderr.
 Options after the scene that argparse does not know (``-eye_snes_monitor``...) go to PETSc.
+The load increments are printed on stdout by rank 0 (output/console.py); stderr carries the
+warnings and the error.
 """
 import argparse
 import logging
@@ -12,9 +14,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .errors import ConvergenceError, SceneError
+from .output.console import print_on_rank0
 
 
-def _petsc_options(tokens):
+def _petsc_options(tokens: list[str]) -> None:
     """Put ``-key [value]`` tokens into the PETSc options database."""
     opts = PETSc.Options()
     i = 0
@@ -29,20 +32,20 @@ def _petsc_options(tokens):
         i += 1
 
 
-def _warnings_only(record):
+def _warnings_only(record: logging.LogRecord) -> bool:
     """Filter of the root logger. The JIT compiler (cffi through distutils) logs every form it
     compiles at INFO on the root logger, and ffcx's ``logging.basicConfig()`` sends that to
     stderr, which is for warnings and the one-line error."""
     return record.levelno >= logging.WARNING
 
 
-def _fail(code, message):
+def _fail(code: int, message: object) -> int:
     if MPI.COMM_WORLD.rank == 0:
         print(f"error: {message}", file=sys.stderr, flush=True)
     return code
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="eyeball-fenicsx", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     run = commands.add_parser("run", help="run a scene TOML file")
@@ -55,6 +58,7 @@ def main(argv=None):
     sweep.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.png, one folder a run)")
     args, petsc = parser.parse_known_args(argv)
     logging.getLogger().addFilter(_warnings_only)
+    print_on_rank0()  # the load increments, on stdout (rank 0)
     try:
         _petsc_options(petsc)
         if args.command == "sweep":

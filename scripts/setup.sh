@@ -17,3 +17,7 @@ if [ ! -x .venv/bin/eyeball-fenicsx ]; then
   /usr/bin/python3 -m venv --system-site-packages .venv
   .venv/bin/python3 -m pip install -q --no-build-isolation --no-deps -e .
 fi
+if [ ! -x .venv/bin/ruff ]; then  # the linter .ci/run runs (configured in pyproject.toml)
+  echo "setup: installing ruff into .venv"
+  .venv/bin/python3 -m pip install -q ruff==0.8.6
+fi

@@ -1,4 +1,5 @@
-"""The buckled eye (eyeball_fenicsx/meshing/builders/buckled_eye.py): the eye plus an encircling band and/or a silicone tire.
+"""The buckled eye (eyeball_fenicsx/meshing/builders/buckled_eye.py): the eye plus an encircling
+band and/or a silicone tire.
 
 Runs in serial and under ``mpirun -n 2``: the meshes are built on rank 0 and distributed, every check
 is collective, and nodes are gathered on rank 0 (by their global input numbers) to compare bodies.

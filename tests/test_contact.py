@@ -22,6 +22,7 @@ from eyeball_fenicsx.contact import (
 from eyeball_fenicsx.contact.policy import PENALTY_FACTOR
 from eyeball_fenicsx.meshing.builders.hexes import HEXAHEDRON, QUADRANGLE, boundary_quads, hex_grid
 from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.output.console import increment_lines
 
 _SIDES = {"x0": "u-", "x1": "u+", "y0": "v-", "y1": "v+", "z0": "w-", "z1": "w+"}
 
@@ -83,17 +84,14 @@ def uniaxial_stress(c10, stretch):
     return 2 * c10 * (stretch - stretch**-2)
 
 
-def quiet(message):
-    pass
-
-
 # -- (a) kinematics ---------------------------------------------------------------------------
 def _warped_grid():
     """A 3 x 3 patch of warped quadrilaterals (16 nodes) and the same split into triangles."""
     rng = np.random.default_rng(3)
     xs = np.linspace(0.0, 3.0, 4)
     X = np.array([[x, y, 0.1 * np.sin(x + 2 * y)] for y in xs for x in xs]) + 0.05 * rng.standard_normal((16, 3))
-    quads = np.array([[4 * j + i, 4 * j + i + 1, 4 * (j + 1) + i + 1, 4 * (j + 1) + i] for j in range(3) for i in range(3)])
+    quads = np.array([[4 * j + i, 4 * j + i + 1, 4 * (j + 1) + i + 1, 4 * (j + 1) + i]
+                      for j in range(3) for i in range(3)])
     return X, quads, np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
 
 
@@ -168,7 +166,8 @@ def test_smoothed_law_is_the_penalty_away_from_contact():
     assert p[1] == pytest.approx(alpha[1] * delta * np.exp(-g[1] / delta), rel=1e-8)
     g = np.array([-0.003, 0.004])
     h = 1e-7
-    dp = (pressure(g + h, np.full(2, 0.01), alpha, delta)[0] - pressure(g - h, np.full(2, 0.01), alpha, delta)[0]) / (2 * h)
+    dp = (pressure(g + h, np.full(2, 0.01), alpha, delta)[0]
+          - pressure(g - h, np.full(2, 0.01), alpha, delta)[0]) / (2 * h)
     assert -dp == pytest.approx(pressure(g, np.full(2, 0.01), alpha, delta)[1], rel=1e-7)
 
 
@@ -214,7 +213,7 @@ def test_rigid_plane_compresses_a_block_homogeneously(block_mesh):
     scene = ef.Scene("plane", block_mesh((2, 2, 3)), {"solid": ef.NeoHooke(c10)},
                      features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
                                ef.Dirichlet("z0", {"z": 0.0}), plane],
-                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2), log=quiet)
+                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
     final = scene.run()["steps"][-1]
     contact = final["contact"]["press"]
     stretch = 1 + final["probes"]["top"][2]
@@ -232,7 +231,7 @@ def test_penalty_from_the_scene_is_reported_and_leaves_no_penetration(block_mesh
                          displacement=[0, 0, -0.1])
     scene = ef.Scene("plane", block_mesh((1, 1, 2)), {"solid": ef.NeoHooke(0.5)},
                      features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
-                               ef.Dirichlet("z0", {"z": 0.0}), plane], solver=ef.SolverSettings(increments=1), log=quiet)
+                               ef.Dirichlet("z0", {"z": 0.0}), plane], solver=ef.SolverSettings(increments=1))
     contact = scene.run()["steps"][-1]["contact"]["press"]
     assert contact["penalty"] == 50.0
     assert contact["max_penetration"] < 1e-4 / 2  # of the element's depth, 1/2
@@ -284,9 +283,9 @@ def test_hertz_rigid_sphere_on_incompressible_half_space():
     scene = ef.Scene("hertz", blocks_mesh(("solid", xs, xs, zs)), {"solid": ef.NeoHooke(c10)},
                      features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
                                ef.Dirichlet("solid_z0", {"z": 0.0}), sphere],
-                     solver=ef.SolverSettings(increments=4, growth=1.0),
-                     log=lambda message: curve.append((-sphere.shift[2], -4 * sphere.report()["force"][2])))
-    scene.run()
+                     solver=ef.SolverSettings(increments=4, growth=1.0))
+    with increment_lines(lambda line: curve.append((-sphere.shift[2], -4 * sphere.report()["force"][2]))):
+        scene.run()
     depth, force = np.array(curve).T
     hertz = hertz_layer_force(2 * c10, R, depth, L)
     assert force[-1] == pytest.approx(hertz[-1], rel=0.02), force / hertz
@@ -298,9 +297,13 @@ def test_hertz_rigid_sphere_on_incompressible_half_space():
 # -- (e) sliding --------------------------------------------------------------------------------
 def test_sliding_block_crosses_many_master_elements_with_quadratic_newton():
     """A block pressed onto a longer one and dragged 1.5 along it (4.5 master elements, 10
-    slave elements, 1/16 of a master element per increment): frictionless, so the contact force stays normal and balances the base's
-    reaction, and Newton converges quadratically once the active set settles."""
-    n = lambda k, lo=0.0, hi=1.0: np.linspace(lo, hi, k + 1)
+    slave elements, 1/16 of a master element per increment): frictionless, so the contact
+    force stays normal and balances the base's reaction, and Newton converges quadratically
+    once the active set settles."""
+
+    def n(k, lo=0.0, hi=1.0):
+        return np.linspace(lo, hi, k + 1)
+
     mesh = blocks_mesh(("lower", n(9, 0, 3), n(3), n(2, 0, 0.5)), ("upper", n(4, 0, 0.6), n(4), n(2, 0.5, 1.0)))
     pair = ContactPair("slide", slave="upper_z0", master="lower_z1")
     histories = []
@@ -310,9 +313,9 @@ def test_sliding_block_crosses_many_master_elements_with_quadratic_newton():
                                ef.Dirichlet("upper_z1", {"x": 1.5, "z": -0.05}), pair],
                      probes={"corner": [0.6, 1.0, 1.0]},
                      # a fresh tangent every Newton step: the convergence rate is the point here
-                     solver=ef.SolverSettings(increments=24, growth=1.0, reuse_contraction=0.0),
-                     log=lambda message: histories.append(list(scene.newton.residual_norms)))
-    final = scene.run()["steps"][-1]
+                     solver=ef.SolverSettings(increments=24, growth=1.0, reuse_contraction=0.0))
+    with increment_lines(lambda line: histories.append(list(scene.newton.residual_norms))):
+        final = scene.run()["steps"][-1]
     contact, reactions = final["contact"]["slide"], final["reactions"]
     assert final["probes"]["corner"][0] == pytest.approx(1.5)
     assert reactions["lower_z0"][2] == pytest.approx(-reactions["upper_z1"][2], rel=1e-7)
@@ -343,7 +346,7 @@ def test_penalties_over_five_decades_converge(block_mesh, penalty):
     scene = ef.Scene("decades", block_mesh((1, 1, 2)), {"solid": ef.NeoHooke(c10)},
                      features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
                                ef.Dirichlet("z0", {"z": 0.0}), plane],
-                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2), log=quiet)
+                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
     final = scene.run()["steps"][-1]
     contact = final["contact"]["press"]
     stretch = 1 + final["probes"]["top"][2]

@@ -40,10 +40,6 @@ def neo_hooke_uniaxial(c10, stretch):
     return uniaxial_nominal_stress(stretch, {(1, 0): c10})
 
 
-def quiet(message):
-    pass
-
-
 def gathered(array):
     """The rows of a per-rank array from every rank, on every rank."""
     return np.concatenate(COMM.allgather(np.asarray(array)))
@@ -86,14 +82,17 @@ def test_patch_test_pressure_at_every_integration_point():
     1e-4 leaves room for the Uzawa tolerance. A penalty alone leaves the penetration p / penalty
     and a force 1.8 % low with the default penalty."""
     c10, d, n_slave = 0.5, 0.1, 5
-    axis = lambda k: np.linspace(0.0, 1.0, k + 1)
+
+    def axis(k):
+        return np.linspace(0.0, 1.0, k + 1)
+
     mesh = boxes_mesh(("lower", axis(3), axis(3), axis(2)), ("upper", axis(n_slave), axis(n_slave), 1.0 + axis(2)))
     pair = ContactPair("interface", slave="upper_z0", master="lower_z1")
     scene = ef.Scene("patch", mesh, {"lower": ef.NeoHooke(c10), "upper": ef.NeoHooke(c10)},
                      features=[ef.Dirichlet("lower_z0", {"z": 0.0}), ef.Dirichlet("lower_x0", {"x": 0.0}),
                                ef.Dirichlet("lower_y0", {"y": 0.0}), ef.Dirichlet("upper_x0", {"x": 0.0}),
                                ef.Dirichlet("upper_y0", {"y": 0.0}), ef.Dirichlet("upper_z1", {"z": -d}), pair],
-                     solver=ef.SolverSettings(increments=2), log=quiet)
+                     solver=ef.SolverSettings(increments=2))
     final = scene.run()["steps"][-1]
     contact, reactions = final["contact"]["interface"], final["reactions"]
     pressure = -neo_hooke_uniaxial(c10, 1 - d / 2)  # 0.158 MPa on the unit area
@@ -146,7 +145,7 @@ def hertz():
         scene = ef.Scene("hertz", mesh, {"solid": ef.NeoHooke(C10)},
                          features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
                                    ef.Dirichlet("solid_z0", {"z": 0.0}), sphere],
-                         solver=ef.SolverSettings(increments=2, growth=1.0), log=quiet)
+                         solver=ef.SolverSettings(increments=2, growth=1.0))
         forces[multiple] = -4 * scene.run()["steps"][-1]["contact"]["sphere"]["force"][2]
     return forces
 
@@ -195,9 +194,16 @@ def test_ring_mesh_sits_on_the_faceted_cylinder():
 
     def integral(measure):
         return COMM.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * measure)), op=MPI.SUM)
-    ds = lambda name: ufl.ds(domain=mesh.mesh, subdomain_data=mesh.facet_tags, subdomain_id=mesh.surfaces[name])
-    dx = lambda name: ufl.dx(domain=mesh.mesh, subdomain_data=mesh.cell_tags, subdomain_id=mesh.regions[name])
-    sector = lambda r: 6 * r**2 * np.sin(np.pi / n) * np.cos(np.pi / n)
+
+    def ds(name):
+        return ufl.ds(domain=mesh.mesh, subdomain_data=mesh.facet_tags, subdomain_id=mesh.surfaces[name])
+
+    def dx(name):
+        return ufl.dx(domain=mesh.mesh, subdomain_data=mesh.cell_tags, subdomain_id=mesh.regions[name])
+
+    def sector(r):
+        return 6 * r**2 * np.sin(np.pi / n) * np.cos(np.pi / n)
+
     assert integral(ds("ring_inner")) == pytest.approx(6 * 2 * R * np.sin(np.pi / n) * L, rel=1e-12)
     assert integral(ds("cylinder_outer")) == pytest.approx(6 * 2 * R * np.sin(np.pi / n) * L, rel=1e-12)
     assert integral(dx("ring")) == pytest.approx((sector(R + t) - sector(R)) * L, rel=1e-12)
@@ -239,7 +245,7 @@ def ring():
     scene = ef.Scene("ring", mesh, {"cylinder": ef.NeoHooke(C_CYLINDER), "ring": ef.NeoHooke(C_RING)},
                      features=symmetry + [band, pair],
                      # a fresh tangent every Newton step: its quality is the point here
-                     solver=ef.SolverSettings(increments=4, growth=1.0, reuse_contraction=0.0), log=quiet)
+                     solver=ef.SolverSettings(increments=4, growth=1.0, reuse_contraction=0.0))
     scene.build()
     solves, solve = [], scene.newton.solve
 

@@ -99,8 +99,8 @@ def test_buckle_agrees_on_one_and_two_ranks(demo, shared_tmp, monkeypatch):
     assert runs["world"]["comm"].size == MPI.COMM_WORLD.size and runs["self"]["comm"].size == 1
     alone, together = (runs[c]["summary"] for c in ("self", "world"))
     for step_alone, step_together in zip(alone["steps"], together["steps"], strict=True):
-        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2", "retina_penetration_max_mm",
-                    "subretinal_volume_mm3"):
+        for key in ("axial_length_change_mm", "iop_mmHg", "buckle_height_mm", "detached_area_mm2",
+                    "retina_penetration_max_mm", "subretinal_volume_mm3"):
             assert step_together["eye"][key] == pytest.approx(step_alone["eye"][key], rel=1e-6, abs=1e-9), key
         for name, contact in step_alone["contact"].items():
             assert step_together["contact"][name]["force"] == pytest.approx(contact["force"], rel=1e-6, abs=1e-9), name

@@ -18,7 +18,6 @@ def at_rest(comm):
     """The scene's last step, its tissues' constants, and its vitreous' wall as the mesh builds
     it (``eyeball_fenicsx.meshing.builders.eye.scleral_wall``, from the scene's own mesh parameters)."""
     scene = load_scene(SCENE, comm, overrides={"mesh.n_circ": 16})
-    scene.log = lambda message: None
     materials = {tissue: law.c for tissue, law in scene.materials.items() if hasattr(law, "c")}
     return scene.run()["steps"][-1], materials, scleral_wall(**scene.mesh.parameters)
 

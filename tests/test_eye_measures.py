@@ -1,4 +1,4 @@
-"""The surgeon's measures (eyeball_fenicsx/measures.py) on states whose answers are known, and the
+"""The surgeon's measures (eyeball_fenicsx/output/measures.py) on states whose answers are known, and the
 pictures a scene with an [eye] table draws.
 
 The displacements are prescribed (interpolated into the solid's state), not solved for: the
@@ -35,7 +35,8 @@ SCENE = ('name = "buckle-at-rest"\n[mesh]\nbuilder = "buckled_eye"\nsector_deg =
                    (("optic_nerve_end", "x = 0.0\ny = 0.0\nz = 0.0"), ("band_outer", "x = 0.0\ny = 0.0\nz = 0.0"),
                     ("cut_0", "y = 0.0"), ("cut_1", "y = 0.0")))
          + '[[pressure]]\nsurface = "vitreous_wall"\nvalue = 0.0005\nstep = "inflate"\n'
-         + '[eye]\nbuckle = "band_inner"\nretina = "retina_outer"\nchoroid = "choroid_inner"\n[solver]\nincrements = 1\n')
+         + '[eye]\nbuckle = "band_inner"\nretina = "retina_outer"\nchoroid = "choroid_inner"\n'
+         + '[solver]\nincrements = 1\n')
 
 
 def prescribe(solid, displacement):
@@ -66,10 +67,9 @@ def buckled(tmp_path_factory):
     """The half buckled eye of SCENE, run (pictures in its output folder), then its scene."""
     folder = COMM.bcast(str(tmp_path_factory.mktemp("buckled")) if COMM.rank == 0 else None, root=0)
     scene = load_scene(scene_file(folder, SCENE), COMM)
-    scene.log = lambda message: None
     out = os.path.join(folder, "out")
     scene.run(out)
-    return scene, next(f for f in scene.features if isinstance(f, EyeMeasures)), out
+    return scene, next(o for o in scene.observers if isinstance(o, EyeMeasures)), out
 
 
 def test_detachment_at_rest_and_moved(detached):

@@ -1,4 +1,5 @@
-"""The eye mesh (eyeball_fenicsx/meshing/builders/eye.py): tissues, surfaces, quality, closed cavities and anatomical sizes.
+"""The eye mesh (eyeball_fenicsx/meshing/builders/eye.py): tissues, surfaces, quality, closed
+cavities and anatomical sizes.
 
 Runs in serial and under ``mpirun -n 2``: the meshes are built on rank 0 and distributed, every
 check is collective, and lists of facets are gathered on rank 0 to count edge incidences.

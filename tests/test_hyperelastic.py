@@ -1,7 +1,6 @@
 """The incompressible hyperelastic core against closed forms."""
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_inner_stretch, uniaxial_nominal_stress

@@ -99,7 +99,9 @@ CASES = {
     # tissue sets
     "tissues-unknown-set": ('tissues = "living"\n' + OCTANT, ["scene.toml", "tissues = 'living' is not a tissue set",
                                                              "'calibrated'", "'seed'"]),
-    "tissues-on-a-mesh-without-the-eye": ('tissues = "seed"\n' + OCTANT, ["tissues = 'seed'", "[materials.cornea]", "'cornea' is not a volume group"]),
+    "tissues-on-a-mesh-without-the-eye": ('tissues = "seed"\n' + OCTANT,
+                                          ["tissues = 'seed'", "[materials.cornea]",
+                                           "'cornea' is not a volume group"]),
     # a retinal break (break_into, break_closes) and drainage (drain, drain_fraction)
     "break-into-unknown-cavity": (OCTANT + STEPS + CAVITY + CLOSED + SUB + 'break_into = "lens"\n',
                                   ["[[cavity]] #2", "break_into = 'lens'", "['sub', 'vitreous']"]),
@@ -108,12 +110,15 @@ CASES = {
     "break-closes-unknown-step": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK.replace('"close"', '"later"'),
                                   ["[[cavity]] #2", "break_closes 'later' is not a [[step]]", "'fill', 'close'"]),
     "break-closes-with-the-filling": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK.replace('"close"', '"fill"'),
-                                      ["[[cavity]] #2", "cavity 'sub'", "break_closes must be a step after 'vitreous'"]),
+                                      ["[[cavity]] #2", "cavity 'sub'",
+                                       "break_closes must be a step after 'vitreous'"]),
     "break-guest-pressurized": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK + "pressurize = true\n",
                                 ["[[cavity]] #2", "cavity 'sub'", "fills with 'vitreous'", "pressurize"]),
-    "drain-through-an-open-break": (OCTANT + STEPS + CAVITY + CLOSED + SUB + 'break_into = "vitreous"\ndrain = "drain"\n',
+    "drain-through-an-open-break": (OCTANT + STEPS + CAVITY + CLOSED + SUB
+                                    + 'break_into = "vitreous"\ndrain = "drain"\n',
                                     ["[[cavity]] #2", "drainage of 'sub'", "break is still open", "break_closes"]),
-    "drain-fraction-out-of-range": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK + 'drain = "drain"\ndrain_fraction = 1.0\n',
+    "drain-fraction-out-of-range": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK
+                                    + 'drain = "drain"\ndrain_fraction = 1.0\n',
                                     ["[[cavity]] #2", "drain_fraction must be a number in (0, 1)", "1.0"]),
     "drain-fraction-without-drain": (OCTANT + STEPS + CAVITY + CLOSED + SUB + BREAK + "drain_fraction = 0.5\n",
                                      ["[[cavity]] #2", "drain_fraction needs drain"]),

@@ -1,9 +1,10 @@
-"""The README's default-eye figures, reproduced to the digits it quotes.
+r"""The README's default-eye figures, reproduced to the digits it quotes.
 
 Slow (about 2 minutes on two cores: the default eye through the encircling operation with its
 drainage, the segmental buckle, and the eye at rest), so it runs only when asked:
 
-    mpirun --allow-run-as-root -n 2 .venv/bin/python3 -m pytest -m slow -o faulthandler_timeout=0 tests/test_readme_figures.py
+    mpirun --allow-run-as-root -n 2 .venv/bin/python3 -m pytest -m slow -o faulthandler_timeout=0 \
+        tests/test_readme_figures.py
 
 (``benchmarks/readme_figures.sh``). A figure passes when the run rounds to the README's value:
 within half a unit of its last digit. The solver's tolerances (residuals 1e-9 relative, the

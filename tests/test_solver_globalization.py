@@ -1,4 +1,4 @@
-"""Newton's globalization (solver.py): convergence judged block by block, stagnation ends a
+"""Newton's globalization (system/newton.py): convergence judged block by block, stagnation ends a
 solve at once, an inverting step is shortened, and the increments follow the target rule."""
 import contextlib
 
@@ -14,10 +14,6 @@ from eyeball_fenicsx.system.newton import PREFIX, STAGNATION_WINDOW
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
 ROLLERS = [ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}), ef.Dirichlet("z0", {"z": 0.0})]
-
-
-def quiet(message):
-    pass
 
 
 @contextlib.contextmanager
@@ -45,7 +41,7 @@ def filled_sphere(sphere_mesh, rtol):
         cavity = LiquidCavity("liquid", "inner", 2083.3, 0.0, symmetry=["x", "y", "z"])
         scene = ef.Scene("vitreous", sphere_mesh(n=4, layers=2), {"wall": ef.NeoHooke(0.0008)},
                          features=SYMMETRY + [cavity], probes={"inner": [1.0, 0.0, 0.0]},
-                         solver=ef.SolverSettings(increments=1, reuse_contraction=0.0), log=quiet).build()
+                         solver=ef.SolverSettings(increments=1, reuse_contraction=0.0)).build()
         cavity.dV_inj = 0.05 * cavity.V_ini
         return scene.run()["steps"][-1], scene
 
@@ -80,8 +76,8 @@ def test_blocks_follow_the_problem(sphere_mesh):
     """Every owned row of the residual is in exactly one block: the displacement dofs split
     into free and prescribed, the pressure dofs, and the cavity's row on the last rank."""
     cavity = LiquidCavity("liquid", "inner", 10.0, symmetry=["x", "y", "z"])
-    scene = ef.Scene("rows", sphere_mesh(n=2, layers=1), {"wall": ef.NeoHooke(0.5)}, features=SYMMETRY + [cavity],
-                     log=quiet).build()
+    scene = ef.Scene("rows", sphere_mesh(n=2, layers=1), {"wall": ef.NeoHooke(0.5)},
+                     features=SYMMETRY + [cavity]).build()
     problem = scene.problem
     problem.begin_step(0)
     rows = np.concatenate([rows for _, rows in problem.residual_blocks])
@@ -102,7 +98,7 @@ def test_newton_without_an_equilibrium_stops_as_stagnated(sphere_mesh):
     c = {(1, 0): 0.5}
     p_max = max(sphere_pressure(lam, c, 1.0, 1.1) for lam in np.linspace(1.05, 2.0, 400))
     scene = ef.Scene("beyond", sphere_mesh(n=6, layers=2, outer_radius=1.1), {"wall": ef.MooneyRivlin(c)},
-                     features=SYMMETRY + [ef.Pressure("inner", 1.2 * p_max)], log=quiet,
+                     features=SYMMETRY + [ef.Pressure("inner", 1.2 * p_max)],
                      solver=ef.SolverSettings(increments=1, max_cutbacks=0))
     with petsc_options(snes_linesearch_type="basic", snes_max_it=30), \
             pytest.raises(ef.ConvergenceError, match="last try: stagnated"):
@@ -125,7 +121,7 @@ def test_inverting_step_is_shortened_not_cut_back(block_mesh, line_search):
     c, force = {(1, 0): 0.5}, -4.0  # mu = 2 c10 = 1
     scene = ef.Scene("crush", block_mesh((2, 1, 1)), {"solid": ef.MooneyRivlin(c)},
                      features=ROLLERS + [ef.NodalForce([force, 0.0, 0.0], surface="x1")],
-                     probes={"corner": [1.0, 1.0, 1.0]}, log=quiet,
+                     probes={"corner": [1.0, 1.0, 1.0]},
                      solver=ef.SolverSettings(increments=1, max_cutbacks=0))
     with petsc_options(snes_linesearch_type=line_search):
         final = scene.run()["steps"][-1]
@@ -146,7 +142,7 @@ def corner_force(block_mesh, growth):
     point (the inversion guard watches midpoints), and a cut-back would break the rule's chain."""
     scene = ef.Scene("corner", block_mesh((2, 2, 2)), {"solid": ef.NeoHooke(0.5)},
                      features=ROLLERS + [ef.NodalForce([-2.0, -2.0, -2.0], point=[1.0, 1.0, 1.0])],
-                     probes={"corner": [1.0, 1.0, 1.0]}, log=quiet,
+                     probes={"corner": [1.0, 1.0, 1.0]},
                      solver=ef.SolverSettings(increments=4, growth=growth, predictor=False))
     return scene.run()["steps"][-1]
 

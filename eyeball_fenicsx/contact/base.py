@@ -30,7 +30,13 @@ balance on the slave nodes, h the thickness of the point's element), found by re
 along the step. Every point that closes by less than its d in the step closes in it, so
 many gaps close in one Newton step; a step that closes nothing is not touched, which
 leaves the converged answer and Newton's quadratic convergence as they were.
+
+A contact feature plays the roles (``features/roles.py``) of nodal assembly of the residual
+and the tangent, and of an active set: the solver watches its search, its onset limit and
+its augmentations.
 """
+from __future__ import annotations
+
 import dataclasses
 import time
 
@@ -78,11 +84,9 @@ class ContactFeature(Feature):
     """
 
     section = "contact"
-    adds_to_residual = True
-    adds_to_jacobian = True
-    limits_steps = True
+    symmetric_tangent = False  # True in a subclass whose tangent is the Hessian of a potential
 
-    def __init__(self, name, slave, penalty, step, smoothing):
+    def __init__(self, name: str, slave: str, penalty: float | None, step: int, smoothing: float):
         self.name, self.slave_name, self.step = name, slave, step
         self.penalty = check_penalty(name, penalty)
         self.smoothing = float(smoothing)
@@ -125,10 +129,19 @@ class ContactFeature(Feature):
                 "direction": direction, "contacts": np.column_stack([sel.point[index], sel.target[index]])}
 
     # -- Newton --------------------------------------------------------------------------
-    def begin_step(self, step_index):
+    def begin_step(self, step_index: int) -> None:
         self.active = step_index >= self.step
 
-    def tangent_outdated(self):
+    def begin_increment(self) -> bool:
+        """Search anew before an increment; True if the matrix pattern must grow (not by default:
+        a rigid body's points couple only their own node)."""
+        return False
+
+    def coupling(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The entries beyond the mesh's pattern that contact may touch (none by default)."""
+        return None
+
+    def tangent_outdated(self) -> bool:
         """True (on every rank: collective) if the contacts changed since the last tangent was
         assembled: a factorization of that tangent then is no Newton step."""
         if not self.active:
@@ -138,7 +151,7 @@ class ContactFeature(Feature):
             and np.array_equal(seen["jacobian"], seen["residual"])
         return self.solid.comm.allreduce(not same, op=MPI.LOR)
 
-    def add_to_residual(self, b):
+    def add_to_residual(self, b: PETSc.Vec) -> None:
         if not self.active:
             return
         start = time.perf_counter()
@@ -147,7 +160,7 @@ class ContactFeature(Feature):
         b.setValues(state["rows"].ravel(), state["r"].ravel(), addv=_ADD)
         self.timing["assembly"] += time.perf_counter() - start
 
-    def add_to_jacobian(self, A):
+    def add_to_jacobian(self, A: PETSc.Mat) -> None:
         start = time.perf_counter()
         self._reserve(A)
         if self.active:
@@ -160,7 +173,7 @@ class ContactFeature(Feature):
     def _reserve(self, A):
         """Make room in A for the entries contact may add later (nothing by default)."""
 
-    def set_increment(self, final):
+    def set_increment(self, final: bool) -> None:
         """Whether the coming increment ends its step (the augmentations then go to the end);
         the last increment's update of the multipliers is taken now."""
         self.final_increment, self._passes = final, 0
@@ -180,7 +193,7 @@ class ContactFeature(Feature):
         work.scatter_forward()
         return work.array.copy()
 
-    def augment(self):
+    def augment(self) -> bool:
         """Uzawa's update of the nodal multipliers (module docstring; collective). Returns True
         if nothing is left to do: not this feature's step yet, an increment inside a step (one
         update, no new solve), or updates that move no node by more than AUGMENT_DEPTH of its element;
@@ -199,7 +212,8 @@ class ContactFeature(Feature):
         owned = seen & (np.arange(len(seen)) < self._num_owned)
         update = target - self.node_multiplier
         unsettled = np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]
-        if self.solid.comm.allreduce(unsettled.max(initial=0.0), op=MPI.MAX) <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
+        settled = self.solid.comm.allreduce(unsettled.max(initial=0.0), op=MPI.MAX) <= 1.0
+        if settled or self._passes >= MAX_AUGMENTATIONS:
             self._last_update = None
             return True
         # Aitken's relaxation of the increments (Irons and Tuck 1969; Kuettler and Wall,
@@ -228,7 +242,7 @@ class ContactFeature(Feature):
         work.x.scatter_forward()
         return work.x.array
 
-    def step_fraction(self, du, residual):
+    def step_fraction(self, du: np.ndarray, residual: np.ndarray) -> float:
         """The largest fraction (at most 1) of the state change ``du`` (the owned entries of the
         mixed vector) at which no closing point is deeper than its onset depth (module
         docstring; collective)."""
@@ -250,7 +264,7 @@ class ContactFeature(Feature):
         return self.solid.comm.allreduce(np.min(hi[closing], initial=1.0), op=MPI.MIN)
 
     # -- output --------------------------------------------------------------------------
-    def point_pressures(self):
+    def point_pressures(self) -> tuple[np.ndarray, np.ndarray]:
         """Reference coordinates (n, 3) of this rank's points and their contact pressure (n,)."""
         result = np.zeros(len(self.weight))
         if self.active:
@@ -258,7 +272,7 @@ class ContactFeature(Feature):
             result[sel.point[on]] = p[on]
         return self.point_X, result
 
-    def report(self):
+    def report(self) -> dict:
         """Total force on the slave surface, deepest penetration and where (reference
         coordinates), the points and slave nodes that carry a pressure, the mean penalty
         (per unit area) and the augmentations so far."""
@@ -270,7 +284,9 @@ class ContactFeature(Feature):
         force = (self.weight[state["point"]] * state["p"])[:, None] * state["direction"]
         force = comm.allreduce(force.sum(axis=0), op=MPI.SUM)
         depth = -state["g"]
-        local = (float(depth.max()), self.point_X[state["point"][depth.argmax()]].tolist()) if len(depth) else (0.0, None)
+        local = (0.0, None)
+        if len(depth):
+            local = (float(depth.max()), self.point_X[state["point"][depth.argmax()]].tolist())
         deepest = max(comm.allgather(local), key=lambda item: item[0])
         return {"force": force.tolist(), "max_penetration": max(deepest[0], 0.0),
                 "where": deepest[1] if deepest[0] > 0 else None,

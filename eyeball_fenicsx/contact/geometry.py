@@ -40,7 +40,10 @@ and from it dg_n = |m| dg + g n . dm, dn = (I - n n^T) dm / |m|, dm = m_,b dxi_b
 dnu_a, dN_a = N_a,b dxi_b, with dnu_a from the cross products (exact: nu_a is quadratic in
 the positions). ``project`` returns them; the tests check them against finite differences.
 """
+from __future__ import annotations
+
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -57,13 +60,13 @@ class Triangle:
     gauss_weights = np.full(3, 1 / 6)
 
     @staticmethod
-    def shape(xi):
+    def shape(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """N (n, 3) and dN/dxi (n, 3, 2) at points xi (n, 2)."""
         N = np.column_stack([1.0 - xi[:, 0] - xi[:, 1], xi[:, 0], xi[:, 1]])
         return N, np.broadcast_to(Triangle._dN, (len(xi), 3, 2))
 
     @staticmethod
-    def outside(xi):
+    def outside(xi: np.ndarray) -> np.ndarray:
         """How far outside the segment a point lies, as a fraction of its size."""
         return np.maximum(0.0, -np.min(Triangle.shape(xi)[0], axis=1))
 
@@ -79,7 +82,7 @@ class Quad:
     gauss_weights = np.ones(4)
 
     @staticmethod
-    def shape(xi):
+    def shape(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = Quad._signs
         f = 1.0 + xi[:, None, :] * s[None, :, :]  # (n, 4, 2): 1 + s_b xi_b
         N = 0.25 * f[:, :, 0] * f[:, :, 1]
@@ -87,11 +90,11 @@ class Quad:
         return N, dN
 
     @staticmethod
-    def outside(xi):
+    def outside(xi: np.ndarray) -> np.ndarray:
         return np.maximum(0.0, 0.5 * (np.max(np.abs(xi), axis=1) - 1.0))
 
 
-def corner_products(x_seg):
+def corner_products(x_seg: np.ndarray) -> np.ndarray:
     """(x_next - x_a) x (x_prev - x_a) at each corner of segments x_seg (m, k, 3)."""
     return np.cross(np.roll(x_seg, -1, axis=1) - x_seg, np.roll(x_seg, 1, axis=1) - x_seg)
 
@@ -119,13 +122,13 @@ class Patches:
     scale: np.ndarray
     mirror: np.ndarray
 
-    def rows(self, segment):
+    def rows(self, segment: np.ndarray) -> Patches:
         """The patch data of the given segments (one per contact point)."""
         return Patches(self.nodes[segment], self.next[segment], self.prev[segment], self.mask[segment],
                        self.scale[segment], self.mirror[segment])
 
 
-def patches(segments, X, symmetry=()):
+def patches(segments: np.ndarray, X: np.ndarray, symmetry: Sequence[str] = ()) -> Patches:
     """The ``Patches`` of the surface ``segments`` (m, k) with reference node coordinates X;
     a node's incidences are the facets that hold it (surface-sized, once at setup).
     ``symmetry``: the coordinate axes ("x", "y", "z") whose planes through the origin are
@@ -193,12 +196,13 @@ class Projection:
     dnormal: np.ndarray = None
     dN: np.ndarray = None
 
-    def take(self, index):
+    def take(self, index: np.ndarray) -> Projection:
         """The projections of some of the points (without derivatives)."""
         return Projection(self.g[index], self.xi[index], self.inside[index], self.normal[index], self.N[index])
 
 
-def project(x_s, N_s, x_p, patch, kind, derivatives=False, start=None, iterations=25, tolerance=1e-12):
+def project(x_s: np.ndarray, N_s: np.ndarray, x_p: np.ndarray, patch: Patches, kind: type, derivatives: bool = False,
+            start: np.ndarray | None = None, iterations: int = 25, tolerance: float = 1e-12) -> Projection:
     """Project slave points on master segments along the interpolated nodal normal field.
 
     Args:
@@ -209,21 +213,44 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, start=None, iteration
         derivatives: also the derivatives over the slave facet's and the patch's nodes.
         start: the feet (n, 2) to start Newton from (default: the segments' centres).
     """
-    n, P, k, k_s = len(x_s), x_p.shape[1], kind.corners, N_s.shape[1]
-    rows = np.arange(n)[:, None, None]
+    e_next, e_prev = _patch_edges(x_p, patch, kind.corners)
+    nu = np.einsum("naij,naj->nai", patch.mirror, np.cross(e_next, e_prev).sum(axis=2)) / patch.scale[:, :, None]
+    x_seg = x_p[:, : kind.corners]
+    xi, g, converged = _feet(x_s, nu, x_seg, kind, start, iterations, tolerance)
+    N, dN, m, m_b, J = _frame(kind, xi, g, nu, x_seg)
+    length = np.linalg.norm(m, axis=1)
+    normal = m / length[:, None]
+    result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, normal, N)
+    if derivatives:
+        _add_derivatives(result, N_s, x_p.shape[1], patch, (e_next, e_prev), g, dN, m_b, J, length)
+    return result
+
+
+def _patch_edges(x_p, patch, k):
+    """The edges x_next - x_a and x_prev - x_a (n, k, V, 3) of the facets at each corner a of the
+    segments (zero where an incidence is padding)."""
+    rows = np.arange(len(x_p))[:, None, None]
     corner = np.broadcast_to(np.arange(k)[None, :, None], patch.mask.shape)
     e_next = np.where(patch.mask[..., None], x_p[rows, patch.next] - x_p[rows, corner], 0.0)
     e_prev = np.where(patch.mask[..., None], x_p[rows, patch.prev] - x_p[rows, corner], 0.0)
-    nu = np.einsum("naij,naj->nai", patch.mirror, np.cross(e_next, e_prev).sum(axis=2)) / patch.scale[:, :, None]
-    x_seg = x_p[:, :k]
+    return e_next, e_prev
+
+
+def _frame(kind, xi, g, nu, x_seg):
+    """N, dN, the normal field m and its derivatives m_b at the feet xi, and the Jacobian
+    [T_1, T_2, m] of the projection's residual over (xi, g)."""
+    N, dN = kind.shape(xi)
+    m, m_b = np.einsum("na,nai->ni", N, nu), np.einsum("nab,nai->nbi", dN, nu)
+    T = np.einsum("nab,nai->nbi", dN, x_seg) + g[:, None, None] * m_b
+    return N, dN, m, m_b, np.stack([T[:, 0], T[:, 1], m], axis=2)  # columns T_1, T_2, m
+
+
+def _feet(x_s, nu, x_seg, kind, start, iterations, tolerance):
+    """Newton on R(xi, g) = x_s - y(xi) - g m(xi) = 0 from ``start`` (default: the segments'
+    centres): the feet xi (n, 2), g (n,) and whether each converged (n,). A point whose foot
+    is clipped to the segment's bounds is far outside it, and stops there."""
+    n = len(x_s)
     size = np.sqrt(np.linalg.norm(np.cross(x_seg[:, 2] - x_seg[:, 0], x_seg[:, -1] - x_seg[:, 1]), axis=1))
-
-    def frame(xi, g, nu, x_seg):
-        N, dN = kind.shape(xi)
-        m, m_b = np.einsum("na,nai->ni", N, nu), np.einsum("nab,nai->nbi", dN, nu)
-        T = np.einsum("nab,nai->nbi", dN, x_seg) + g[:, None, None] * m_b
-        return N, dN, m, m_b, np.stack([T[:, 0], T[:, 1], m], axis=2)  # columns T_1, T_2, m
-
     xi = np.tile(np.asarray(kind.centre, dtype=float), (n, 1)) if start is None else start.copy()
     N, _ = kind.shape(xi)
     m = np.einsum("na,nai->ni", N, nu)
@@ -231,7 +258,7 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, start=None, iteration
     converged = np.zeros(n, dtype=bool)
     moving = np.arange(n)
     for _ in range(iterations):  # Newton on (xi, g), on the points still moving
-        N, _, m, _, J = frame(xi[moving], g[moving], nu[moving], x_seg[moving])
+        N, _, m, _, J = _frame(kind, xi[moving], g[moving], nu[moving], x_seg[moving])
         residual = x_s[moving] - np.einsum("na,nai->ni", N, x_seg[moving]) - g[moving, None] * m
         step = np.linalg.solve(J, residual[:, :, None])[:, :, 0]
         trial = xi[moving] + step[:, :2]
@@ -242,20 +269,23 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, start=None, iteration
         moving = moving[~(small | clipped)]
         if not len(moving):
             break
-    N, dN, m, m_b, J = frame(xi, g, nu, x_seg)
-    length = np.linalg.norm(m, axis=1)
-    normal = m / length[:, None]
-    result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, normal, N)
-    if not derivatives:
-        return result
+    return xi, g, converged
 
+
+def _add_derivatives(result, N_s, P, patch, edges, g, dN, m_b, J, length):
+    """Set the derivatives dg, dnormal, dN of ``result`` over q = [slave facet nodes, patch nodes]
+    (the module docstring's linearization), from the edges at the segments' corners and the
+    frame at the feet."""
+    (n, k), k_s = result.N.shape, N_s.shape[1]
+    N, normal = result.N, result.normal
     # dnu_a / dq over the patch nodes (n, k, 3, P, 3):
     # d[e_n x e_p] = -[e_p]_x (dx_next - dx_a) + [e_n]_x (dx_prev - dx_a)
     dnu = np.zeros((n, k, 3, P, 3))
     view = dnu.transpose(0, 1, 3, 2, 4)  # (n, k, P, 3, 3): the block of each patch node
     weight = (patch.mask / patch.scale[:, :, None])[..., None, None]
-    skew_next, skew_prev = _skew(e_next), _skew(e_prev)
-    point = np.broadcast_to(rows, patch.mask.shape)
+    skew_next, skew_prev = _skew(edges[0]), _skew(edges[1])
+    point = np.broadcast_to(np.arange(n)[:, None, None], patch.mask.shape)
+    corner = np.broadcast_to(np.arange(k)[None, :, None], patch.mask.shape)
     for target, block in ((patch.next, -skew_prev), (patch.prev, skew_next), (corner, skew_prev - skew_next)):
         np.add.at(view, (point, corner, target), weight * block)
     dnu = np.einsum("naij,najq->naiq", patch.mirror, dnu.reshape(n, k, 3, 3 * P))
@@ -270,12 +300,13 @@ def project(x_s, N_s, x_p, patch, kind, derivatives=False, start=None, iteration
     dm = np.einsum("nbi,nbq->niq", m_b, dz[:, :2])
     dm[:, :, 3 * k_s:] += dM
     result.dg = length[:, None] * dz[:, 2] + g[:, None] * np.einsum("ni,niq->nq", normal, dm)
-    result.dnormal = np.einsum("nij,njq->niq", eye3 - normal[:, :, None] * normal[:, None, :], dm) / length[:, None, None]
+    projector = eye3 - normal[:, :, None] * normal[:, None, :]
+    result.dnormal = np.einsum("nij,njq->niq", projector, dm) / length[:, None, None]
     result.dN = np.einsum("nab,nbq->naq", dN, dz[:, :2])
-    return result
 
 
-def traction(weight, pressure, stiffness, proj, N_s, patch_size, tangent=True):
+def traction(weight: np.ndarray, pressure: np.ndarray, stiffness: np.ndarray, proj: Projection, N_s: np.ndarray,
+             patch_size: int, tangent: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Residual and (with ``tangent``) tangent of a contact pressure p(g_n) acting along the
     normal n at the foot.
 

@@ -12,10 +12,13 @@ the penetration to zero where the surfaces press (Simo and Laursen, Comput. Stru
 (1992) 97-116; Wriggers, Computational Contact Mechanics, 2006, sect. 6.3), so the answer
 no longer depends on alpha, nor on delta where p >> alpha delta.
 """
+from __future__ import annotations
+
 import numpy as np
 
 
-def pressure(g, multiplier, alpha, smoothing):
+def pressure(g: np.ndarray, multiplier: np.ndarray, alpha: np.ndarray,
+             smoothing: float) -> tuple[np.ndarray, np.ndarray]:
     """Contact pressure p (>= 0) and its stiffness k = -dp/dg at gaps g."""
     shifted = multiplier / alpha - g
     if smoothing > 0.0:

@@ -17,13 +17,17 @@ the displacements of its nodes at every state) is gathered on every rank; each r
 slave facets of its cells. Forces go to global rows; rows of nodes owned elsewhere reach
 their owners through PETSc's stash.
 """
+from __future__ import annotations
+
 import time
+from collections.abc import Sequence
 
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..errors import SceneError
+from ..mechanics.solid import MixedSolid
 from .base import ContactFeature, Selection
 from .geometry import patches, project, traction
 from .policy import SEARCH_FACTOR
@@ -56,7 +60,8 @@ class ContactPair(ContactFeature):
 
     symmetric_tangent = False  # the pressure acts along the smoothed normal, not a gap's gradient
 
-    def __init__(self, name, slave, master, penalty=None, step=0, smoothing=0.0, symmetry=()):
+    def __init__(self, name: str, slave: str, master: str, penalty: float | None = None, step: int = 0,
+                 smoothing: float = 0.0, symmetry: Sequence[str] = ()):
         if slave == master:
             raise SceneError(f"contact {name!r}: slave and master are both {slave!r}; name two surfaces")
         if not set(symmetry) <= {"x", "y", "z"}:
@@ -64,11 +69,11 @@ class ContactPair(ContactFeature):
         super().__init__(name, slave, penalty, step, smoothing)
         self.master_name, self.symmetry = master, tuple(symmetry)
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         comm = solid.comm
         tables = self.tables = SolidTables(solid)
         master, slave = surface(solid, tables, self.master_name), surface(solid, tables, self.slave_name)
-        self.kind, self.slave_kind = master.kind, slave.kind
+        self.kind = master.kind
 
         # slave points: the Gauss points of the owned slave facets
         kind = slave.kind
@@ -114,7 +119,7 @@ class ContactPair(ContactFeature):
         self.pattern_keys = self._keys()
 
     # -- positions -----------------------------------------------------------------------
-    def master_positions(self):
+    def master_positions(self) -> np.ndarray:
         """Current coordinates of every master node (collective: gathers the displacements)."""
         return self.master_X + self._gather_master(self.solid.w.x.array)
 
@@ -228,13 +233,14 @@ class ContactPair(ContactFeature):
         if not self._unreserved:
             return
         pairs = self._candidate_elements()
-        rows = np.hstack([self.facet_global[pairs[:, 0]],
-                          self.master_global[self.patch.nodes[pairs[:, 1]]].reshape(len(pairs), 3 * self.patch.nodes.shape[1])])
+        master = self.master_global[self.patch.nodes[pairs[:, 1]]]
+        rows = np.hstack([self.facet_global[pairs[:, 0]], master.reshape(len(pairs), 3 * self.patch.nodes.shape[1])])
         if len(rows):
-            A.setValuesRCV(rows, rows, np.zeros((len(rows), rows.shape[1], rows.shape[1])), addv=PETSc.InsertMode.ADD_VALUES)
+            zeros = np.zeros((len(rows), rows.shape[1], rows.shape[1]))
+            A.setValuesRCV(rows, rows, zeros, addv=PETSc.InsertMode.ADD_VALUES)
         self._unreserved = False
 
-    def begin_increment(self):
+    def begin_increment(self) -> bool:
         self._search()
         self._unreserved = True
         keys = self._keys()
@@ -243,7 +249,7 @@ class ContactPair(ContactFeature):
         self.pattern_keys = keys
         return True
 
-    def coupling(self):
+    def coupling(self) -> tuple[np.ndarray, np.ndarray]:
         """Global (row, col) dofs of every node pair the candidates may couple."""
         node_dofs = np.vstack([self.facet_global.reshape(-1, 3), self.master_global])
         node_ids = node_dofs[:, 0].astype(np.int64)

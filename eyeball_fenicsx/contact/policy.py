@@ -13,6 +13,11 @@ ACTIVE_RANGE = 20.0  # a smoothed law acts up to gaps of this many smoothing len
 OPEN_RANGE = 3.0  # ... and its stiffness is below 5 % of the penalty beyond this many: "open"
 ONSET_DEPTH = 0.05  # a point closing in one Newton step may go this deep (fraction of its element's thickness)
 ONSET_ITERATIONS = 8  # regula falsi steps to find where along a Newton step a gap reaches that depth
-AUGMENT_DEPTH = 1e-4  # augmented: no multiplier update moves its node by more than this (fraction of its element's thickness)
+AUGMENT_DEPTH = 1e-4  # augmented: no multiplier update moves its node more than this (fraction of its element's depth)
 MAX_AUGMENTATIONS = 30  # Newton solves of one increment's end at most, for the augmentations
 AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
+# Newton's options (``system/newton.py``) with contact: the onset limit already shortens the
+# Newton step, and a backtracking line search would take a fraction of that again (a shortened
+# Newton step decreases the residual less than its sufficient-decrease test asks), and crawl;
+# and each onset costs an iteration, so an increment where many nodes close needs more of them
+NEWTON_OPTIONS = {"snes_linesearch_type": "basic", "snes_max_it": 30}

@@ -5,34 +5,37 @@ points are the slave nodes (with their tributary areas) and the law acts along g
 residual -W p grad g and the exact tangent W (k grad g grad g^T - p Hess g) (the normal of a
 sphere or cylinder turns with the node).
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
 
+from .. import checks
 from ..errors import SceneError
+from ..mechanics.solid import MixedSolid
 from .base import ContactFeature, Selection
 from .surface import SolidTables, default_penalty, surface
 
 
-def _unit(vector, what):
-    v = np.asarray(vector, dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) == 0:
+def _point(value: Sequence[float], what: str) -> np.ndarray:
+    return np.array(checks.vector(value, what))
+
+
+def _unit(vector: Sequence[float], what: str) -> np.ndarray:
+    v = _point(vector, what)
+    if np.linalg.norm(v) == 0:
         raise SceneError(f"{what} must be a non-zero vector of three numbers, got {vector!r}")
     return v / np.linalg.norm(v)
-
-
-def _point(value, what):
-    v = np.asarray(value, dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise SceneError(f"{what} must be three numbers, got {value!r}")
-    return v
 
 
 class Plane:
     """The half-space the solid must stay in: (x - point) . normal >= 0."""
 
-    def __init__(self, point, normal):
+    def __init__(self, point: Sequence[float], normal: Sequence[float]):
         self.point, self.normal = _point(point, "plane point"), _unit(normal, "plane normal")
 
-    def gap(self, x, shift):
+    def gap(self, x: np.ndarray, shift: np.ndarray) -> tuple:
         """Gap g (n,), grad g (n, 3) and Hess g (n, 3, 3; None: zero) at points x (n, 3)."""
         g = (x - self.point - shift) @ self.normal
         return g, np.broadcast_to(self.normal, x.shape), None
@@ -41,12 +44,12 @@ class Plane:
 class _Round:
     """Sphere or cylinder: g = +-(rho - radius), rho the distance to the centre (or axis)."""
 
-    def __init__(self, radius, inside):
-        if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not np.isfinite(radius) or radius <= 0:
+    def __init__(self, radius: float, inside: bool):
+        if not checks.number(radius, "radius") > 0:
             raise SceneError(f"radius must be a positive number, got {radius!r}")
         self.radius, self.sign = float(radius), -1.0 if inside else 1.0
 
-    def gap(self, x, shift):
+    def gap(self, x: np.ndarray, shift: np.ndarray) -> tuple:
         r = self._radial(x - self.origin - shift)
         rho = np.linalg.norm(r, axis=1)
         e = r / rho[:, None]
@@ -56,7 +59,7 @@ class _Round:
 
 
 class Sphere(_Round):
-    def __init__(self, center, radius, inside=False):
+    def __init__(self, center: Sequence[float], radius: float, inside: bool = False):
         super().__init__(radius, inside)
         self.origin, self._projector = _point(center, "sphere center"), np.eye(3)
 
@@ -65,7 +68,7 @@ class Sphere(_Round):
 
 
 class Cylinder(_Round):
-    def __init__(self, point, axis, radius, inside=False):
+    def __init__(self, point: Sequence[float], axis: Sequence[float], radius: float, inside: bool = False):
         super().__init__(radius, inside)
         self.origin, self.axis = _point(point, "cylinder point"), _unit(axis, "cylinder axis")
         self._projector = np.eye(3) - np.outer(self.axis, self.axis)
@@ -97,8 +100,8 @@ class RigidContact(ContactFeature):
 
     symmetric_tangent = True  # the Hessian of a potential
 
-    def __init__(self, name, slave, shape, penalty=None, step=0, displacement=(0.0, 0.0, 0.0), smoothing=0.0,
-                 **shape_params):
+    def __init__(self, name: str, slave: str, shape: str, penalty: float | None = None, step: int = 0,
+                 displacement: Sequence[float] | None = (0.0, 0.0, 0.0), smoothing: float = 0.0, **shape_params):
         super().__init__(name, slave, penalty, step, smoothing)
         if shape not in SHAPES:
             raise SceneError(f"contact {name!r}: unknown rigid shape {shape!r}; choose one of {sorted(SHAPES)}")
@@ -112,7 +115,7 @@ class RigidContact(ContactFeature):
             _point(displacement, f"contact {name!r}: displacement")
         self.shift = np.zeros(3)
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         tables = self.tables = SolidTables(solid)
         s = surface(solid, tables, self.slave_name)
         self.weight = s.node_area
@@ -125,7 +128,7 @@ class RigidContact(ContactFeature):
         self.point_nodes, self.point_N = self.slave_dofs[:, :1], np.ones((len(s.nodes), 1))
         self._setup_common(solid)
 
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         self.shift = factor * self.displacement
 
     def _positions(self):
@@ -151,7 +154,10 @@ class RigidContact(ContactFeature):
     def _gaps_along(self, du):
         x, dx = self._positions()[0], du[self.slave_dofs]
         point = np.arange(len(x))
-        return point, lambda fraction: self.shape.gap(x + np.broadcast_to(fraction, len(x))[:, None] * dx, self.shift)[0]
+
+        def gaps(fraction):
+            return self.shape.gap(x + np.broadcast_to(fraction, len(x))[:, None] * dx, self.shift)[0]
+        return point, gaps
 
     def _loaded_nodes(self, point):
         return int(self.solid.comm.allreduce(len(point)))

@@ -1,8 +1,10 @@
 """Bucket-grid search for the (point, box) pairs of contact candidates."""
+from __future__ import annotations
+
 import numpy as np
 
 
-def candidate_pairs(points, lo, hi):
+def candidate_pairs(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """All (point, box) index pairs with the point inside the axis-aligned box [lo, hi].
 
     A bucket grid with cells the size of an average box: every box is entered into the cells

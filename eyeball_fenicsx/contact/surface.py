@@ -1,5 +1,7 @@
 """What contact needs to know of the solid: its nodes, the facets of a named surface, and
 the stiffness of the elements under them (for the default penalty)."""
+from __future__ import annotations
+
 import dataclasses
 
 import numpy as np
@@ -9,7 +11,9 @@ from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .. import checks
 from ..errors import SceneError
+from ..mechanics.solid import MixedSolid
 from .geometry import Quad, Triangle
 from .policy import PENALTY_FACTOR
 
@@ -19,7 +23,7 @@ class SolidTables:
     dofs, their global numbers and its reference coordinates; per local cell: volume and
     Young's modulus (3 mu for the incompressible laws)."""
 
-    def __init__(self, solid):
+    def __init__(self, solid: MixedSolid):
         W, md = solid.W, solid.mesh_data
         if W.sub(0).ufl_element().degree() != 1:
             raise SceneError(f"contact needs first-order displacements (element Q1P0 on hexahedra or P1P0 on "
@@ -45,8 +49,8 @@ class SolidTables:
         volume.vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self.volume = volume.x.array.copy()
         self.modulus = np.zeros(len(self.volume))
-        for region, law in solid.materials.items():
-            self.modulus[md.cells(region)] = getattr(law, "E", 3.0 * law.shear_modulus)
+        for region, law in solid.laws.items():
+            self.modulus[md.cells(region)] = law.youngs_modulus
 
 
 @dataclasses.dataclass
@@ -75,7 +79,7 @@ class Surface:
     mean_stiffness: float
 
 
-def surface(solid, tables, name):
+def surface(solid: MixedSolid, tables: SolidTables, name: str) -> Surface:
     """The ``Surface`` of the named surface group (collective)."""
     md, W = solid.mesh_data, solid.W
     msh = md.mesh
@@ -124,17 +128,17 @@ def surface(solid, tables, name):
                    values[tables.dofs[nodes, 1]] / node_area, totals[1] / totals[0])
 
 
-def check_penalty(name, penalty):
+def check_penalty(name: str, penalty: float | None) -> float | None:
     """A scene's penalty, checked (None: the default)."""
     if penalty is None:
         return None
-    if isinstance(penalty, bool) or not isinstance(penalty, (int, float)) or not np.isfinite(penalty) or penalty <= 0:
-        raise SceneError(f"contact {name!r}: penalty must be a positive number (pressure per unit penetration), "
-                         f"got {penalty!r}")
+    what = f"contact {name!r}: penalty"
+    if not checks.number(penalty, what) > 0:
+        raise SceneError(f"{what} must be a positive number (pressure per unit penetration), got {penalty!r}")
     return float(penalty)
 
 
-def default_penalty(slave_stiffness, master_stiffness):
+def default_penalty(slave_stiffness: np.ndarray, master_stiffness: float) -> np.ndarray:
     """PENALTY_FACTOR times the series stiffness k_s k_m / (k_s + k_m) of the slave's and the
     master's surface elements (k = E / h; a rigid master: k_m infinite)."""
     if np.isinf(master_stiffness):

@@ -5,14 +5,21 @@ give the band's region a rest state shortened along its circumference: the presc
 deformation F_g = I + (lambda - 1) e_theta e_theta, lambda = 1 - Delta / C with C the
 band's mean circumference, about an axis (the optic axis). Free, the band would shrink to
 C - Delta; on the eye it squeezes the sclera through contact, and its tension follows.
+The solid owns the rest state: the band asks it for the prestretch of its region
+(``MixedSolid.prestretch``, the law ``materials.Prestretched``).
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
 import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
+from .. import checks
 from ..errors import SceneError
-from ..mechanics.materials import Prestretched
+from ..mechanics.solid import MixedSolid
 from .base import Feature
 
 
@@ -27,21 +34,21 @@ class BandTightening(Feature):
 
     section = "bands"
 
-    def __init__(self, region, reduction, center=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0), step=0):
-        if isinstance(reduction, bool) or not isinstance(reduction, (int, float)) or not np.isfinite(reduction):
-            raise SceneError(f"band {region!r}: reduction must be a finite number, got {reduction!r}")
+    def __init__(self, region: str, reduction: float, center: Sequence[float] = (0.0, 0.0, 0.0),
+                 axis: Sequence[float] = (0.0, 0.0, 1.0), step: int = 0):
+        reduction = checks.number(reduction, f"band {region!r}: reduction")
         if reduction < 0:
             raise SceneError(f"band {region!r}: reduction is how much the band's circumference is shortened; it must "
                              f"not be negative, got {reduction!r}")
-        axis = np.asarray(axis, dtype=float)
-        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 0:
+        axis = np.array(checks.vector(axis, f"band {region!r}: axis"))
+        if not np.linalg.norm(axis) > 0:
             raise SceneError(f"band {region!r}: axis must be a non-zero vector of three numbers, got {axis.tolist()}")
         self.name = self.region = region
-        self.reduction, self.step = float(reduction), step
-        self.center = np.asarray(center, dtype=float)
+        self.reduction, self.step = reduction, step
+        self.center = np.array(checks.vector(center, f"band {region!r}: center"))
         self.axis = axis / np.linalg.norm(axis)
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         if self.region not in solid.materials:
             raise SceneError(f"band {self.region!r} is not a region of mesh {solid.mesh_data.source} "
                              f"(its regions: {sorted(solid.materials)})")
@@ -60,7 +67,7 @@ class BandTightening(Feature):
                              f"circumference {self.circumference:.4g}")
         self.stretch = fem.Constant(msh, 1.0)
         F_g = ufl.Identity(3) + (self.stretch - 1) * ufl.outer(e_theta, e_theta)
-        solid.materials[self.region] = Prestretched(solid.materials[self.region], F_g)
+        solid.prestretch(self.region, F_g)
         # current mean circumference and the band tension (1/2pi) integral of sigma_tt / r dv
         x = solid.X + solid.u
         current = x - ufl.as_vector(self.center)
@@ -70,10 +77,10 @@ class BandTightening(Feature):
         self._volume = volume
         self._solid = solid
 
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         self.stretch.value = 1 - factor * self.reduction / self.circumference
 
-    def report(self):
+    def report(self) -> dict:
         comm = self._solid.comm
         mean_radius = comm.allreduce(fem.assemble_scalar(self._radius_form), op=MPI.SUM) / self._volume
         return {"reduction": self.reduction, "rest_stretch": float(self.stretch.value),

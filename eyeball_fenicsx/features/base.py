@@ -1,88 +1,43 @@
-"""The small common interface of everything a scene holds besides the solid.
+"""What every feature of a scene shares: its place on the load path and its report.
 
-A feature contributes to the Newton system in any of three ways, and the problem sums what
-the scene holds (as FEBio's ``Residual`` / ``StiffnessMatrix`` / ``Update``):
+A feature is one physical thing a scene holds besides the solid (a load, a support, a liquid,
+a string, a contact). All of them share this lifecycle, which the problem
+(``system.problem.Problem``) and the load path (``system.stepping``) drive:
 
-* ``residual(solid)``: a UFL form, linear in the test functions, added to the residual;
-  its tangent comes from ``ufl.derivative`` (follower pressure, liquid load);
-* global unknowns (``num_unknowns > 0``): extra scalar rows and columns bordering the
-  system (a cavity's liquid pressure), see ``problem.Problem``;
-* custom assembly: ``add_to_residual`` / ``add_to_jacobian`` write into the PETSc vector
-  and matrix by global index (node-to-segment contact, nodal forces).
+* ``setup(solid)``: once, when the problem is built (locate surfaces, make forms);
+* ``begin_step(step_index)``: when a step of the load path starts;
+* ``set_load_factor(factor)``: the ramp, 0 -> 1 in the feature's own ``step`` (an index),
+  held at 1 after it;
+* ``report()``: what it writes into summary.json after a step, under ``section``.
 
-Every feature ramps in one step of the load path (``step``, an index), and is held at its
-full value after it.
+What a feature contributes to the Newton system is told by the roles it plays
+(``features/roles.py``: a UFL term, Dirichlet conditions, nodal assembly of the residual or
+the tangent, global unknowns, a state it follows, an active set), each a small Protocol: a
+feature takes a role by defining its members, and the problem sorts its features by role
+once (as FEBio's model sums the ``Residual`` and ``StiffnessMatrix`` of what it holds).
 """
+from __future__ import annotations
+
+AXES = {"x": 0, "y": 1, "z": 2}  # a coordinate's name -> its index
 
 
 class Feature:
-    """Base class with nothing to contribute: subclasses override what they need."""
+    """The lifecycle of a feature; by itself it contributes nothing."""
 
-    name = ""
-    step = 0
-    num_unknowns = 0
-    section = None  # the summary.json key this feature reports under, if any
-    adds_to_residual = False  # set by features with custom assembly
-    adds_to_jacobian = False
-    limits_steps = False  # set by features that override step_fraction
+    name: str | None = ""
+    step: int = 0  # the index of the step it ramps in
+    section: str | None = None  # the summary.json key it reports under, if any
 
-    def setup(self, solid):
+    def setup(self, solid) -> None:
         """Called once, when the problem is built; locate surfaces, create forms."""
 
-    def residual(self, solid):
-        """UFL residual contribution, or None."""
-        return None
-
-    def dirichlet_bcs(self):
-        """DOLFINx Dirichlet conditions this feature imposes (while active)."""
-        return []
-
-    def begin_step(self, step_index):
+    def begin_step(self, step_index: int) -> None:
         """Called when a step of the load path starts."""
 
-    def begin_increment(self):
-        """Called before each load increment (after the loads are set); a contact search
-        goes here. Return True if ``coupling()`` changed, so the matrix is preallocated anew."""
-        return False
-
-    def tangent_outdated(self):
-        """Collective: True if the last tangent no longer fits the state (a contact active set
-        changed), so Newton must not reuse its factorization."""
-        return False
-
-    def step_fraction(self, du, residual):
-        """Collective: the largest fraction (at most 1) of the state change ``du`` that Newton
-        may take in one step (contact onset); du and the current residual are the owned
-        entries of mixed vectors."""
-        return 1.0
-
-    def set_increment(self, final):
-        """Called before each load increment: ``final`` if it ends the step."""
-
-    def augment(self):
-        """Collective: after Newton converged an increment, update what the converged state
-        decides (contact multipliers); False if Newton must solve again."""
-        return True
-
-    def coupling(self):
-        """(rows, cols): global indices of the matrix entries ``add_to_jacobian`` may touch
-        beyond the mesh's own pattern, or None. Rows may be owned by any rank."""
-        return None
-
-    def state_changed(self):
-        """Called whenever Newton moves the state, before anything is assembled."""
-
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         """Set the ramped value: factor runs 0 -> 1 in this feature's step."""
 
-    def add_to_residual(self, b):
-        """Add custom contributions to the assembled residual (PETSc Vec, global indices)."""
-
-    def add_to_jacobian(self, A):
-        """Add custom contributions to the Jacobian (PETSc Mat, global indices, ADD_VALUES)."""
-
-    def report(self):
+    def report(self) -> dict | None:
         """What this feature writes into summary.json at the end of a step: a dict under
         ``section`` -> ``name``, or merged into ``section`` itself if ``name`` is None."""
         return None
-

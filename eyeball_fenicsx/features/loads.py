@@ -1,14 +1,23 @@
-"""Boundary conditions: prescribed displacement, follower pressure, nodal forces."""
+"""Boundary conditions: prescribed displacement, follower pressure, nodal forces.
+
+A prescribed displacement is a Dirichlet condition (role ``Constraint``); the follower
+pressure -p J F^-T N dA on the deformed surface (Nanson's formula) is a UFL term
+(``FormTerm``), whose derivative gives its tangent; a dead nodal force adds to the assembled
+residual (``NodalResidual``) and has no tangent.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
 import ufl
 from dolfinx import fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from ..errors import SceneError
-from ..mechanics.solid import MaterialNode
-from .base import Feature
-
-AXES = {"x": 0, "y": 1, "z": 2}
+from ..mechanics.solid import MaterialNode, MixedSolid
+from .base import AXES, Feature
 
 
 class Dirichlet(Feature):
@@ -21,14 +30,14 @@ class Dirichlet(Feature):
 
     section = "reactions"
 
-    def __init__(self, surface, components, step=0):
+    def __init__(self, surface: str, components: dict[str, float], step: int = 0):
         if not components:
             raise SceneError(f"dirichlet on {surface!r}: give at least one of x, y, z")
         self.name = self.surface = surface
         self.components = {AXES[c]: float(v) for c, v in components.items()}
         self.step = step
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         self.solid = solid
         self.dofs = solid.surface_dofs(self.surface)
         self._bcs, self._values = [], []
@@ -43,7 +52,7 @@ class Dirichlet(Feature):
             self._values.append((i, g, dofs))
         self.active = False
 
-    def begin_step(self, step_index):
+    def begin_step(self, step_index: int) -> None:
         self.active = step_index >= self.step
         if step_index == self.step:
             # ramp from where the surface is now (zero in the first step) to the target
@@ -51,17 +60,17 @@ class Dirichlet(Feature):
             for i, g, (in_W, _) in self._values:
                 self._start[i] = self.solid.w.x.array[in_W].copy()
 
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         if not self.active:
             return
         for i, g, (_, collapsed) in self._values:
             start = self._start[i]
             g.x.array[collapsed] = start + factor * (self.components[i] - start)
 
-    def dirichlet_bcs(self):
+    def dirichlet_bcs(self) -> list:
         return self._bcs if self.active else []
 
-    def reaction(self, residual_array):
+    def reaction(self, residual_array: np.ndarray) -> list[float]:
         """Total reaction force on the surface from the unconstrained residual (local array):
         only the constrained components (a sliding support carries no tangential force)."""
         owned = self.solid.num_owned
@@ -72,21 +81,21 @@ class Dirichlet(Feature):
 class Pressure(Feature):
     """Follower pressure on the deformed surface, pushing along the solid's inward normal."""
 
-    def __init__(self, surface, value, step=0):
+    def __init__(self, surface: str, value: float, step: int = 0):
         self.name = self.surface = surface
         self.value = float(value)
         self.step = step
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         self.pressure = fem.Constant(solid.mesh_data.mesh, 0.0)
         solid.mesh_data.facets(self.surface)  # an unknown surface is a SceneError now
 
-    def residual(self, solid):
+    def residual(self, solid: MixedSolid) -> ufl.Form:
         # -(external virtual work) of traction -p n da = -p J F^-T N dA
         ds = solid.ds(solid.mesh_data.surfaces[self.surface])
         return self.pressure * ufl.inner(solid.current_normal_area(), solid.v) * ds
 
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         self.pressure.value = factor * self.value
 
 
@@ -97,16 +106,15 @@ class NodalForce(Feature):
     that reference point.
     """
 
-    adds_to_residual = True
-
-    def __init__(self, value, surface=None, point=None, step=0):
+    def __init__(self, value: Sequence[float], surface: str | None = None, point: Sequence[float] | None = None,
+                 step: int = 0):
         self.surface, self.point = surface, point
         self.name = surface or f"node near {point}"
         self.force = np.asarray(value, dtype=float)
         self.step = step
         self.factor = 0.0
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         owned = solid.num_owned
         if self.surface is not None:
             dofs = [d[d < owned] for d in solid.surface_dofs(self.surface)]
@@ -116,10 +124,10 @@ class NodalForce(Feature):
         self.dofs = dofs
         self.num_nodes = solid.comm.allreduce(len(dofs[0]), op=MPI.SUM)
 
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         self.factor = factor
 
-    def add_to_residual(self, b):
+    def add_to_residual(self, b: PETSc.Vec) -> None:
         for i, d in enumerate(self.dofs):  # owned dofs: local index = index in b's owned array
             b.array[d] -= self.factor * self.force[i] / self.num_nodes
 

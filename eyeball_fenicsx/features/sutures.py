@@ -17,13 +17,18 @@ buckle cannot float off or slide on the sclera before contact holds it.
 Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E about
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
 from dolfinx import cpp
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .. import checks
 from ..errors import SceneError
-from ..mechanics.solid import MaterialNode
+from ..mechanics.solid import MaterialNode, MixedSolid
 from .base import Feature
 
 SUTURE_EA = 40.0  # N, 5-0 polyester (see the module docstring)
@@ -44,27 +49,27 @@ class Suture(Feature):
     """
 
     section = "sutures"
-    adds_to_residual = True
-    adds_to_jacobian = True
     symmetric_tangent = True  # the Hessian of the string's potential
 
-    def __init__(self, name, first, second, tension=None, shortening=None, stiffness=None,
-                 first_surface=None, second_surface=None, anchored=False, bilateral=False, share=1.0, step=0):
+    def __init__(self, name: str, first: Sequence[float], second: Sequence[float], tension: float | None = None,
+                 shortening: float | None = None, stiffness: float | None = None, first_surface: str | None = None,
+                 second_surface: str | None = None, anchored: bool = False, bilateral: bool = False,
+                 share: float = 1.0, step: int = 0):
         if (tension is None) == (shortening is None):
             raise SceneError(f"suture {name!r}: give exactly one of tension or shortening")
-        for key, value in (("tension", tension), ("shortening", shortening), ("stiffness", stiffness)):
-            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
-                                      or not np.isfinite(value) or value < 0):
-                raise SceneError(f"suture {name!r}: {key} must be a non-negative number, got {value!r}")
-        if not 0 < share <= 1:
-            raise SceneError(f"suture {name!r}: share must be in (0, 1], got {share!r}")
-        self.name, self.step, self.share = name, step, share
+        what = f"suture {name!r}: "
+        tension = None if tension is None else checks.number(tension, what + "tension", "nonnegative")
+        shortening = None if shortening is None else checks.number(shortening, what + "shortening", "nonnegative")
+        stiffness = None if stiffness is None else checks.number(stiffness, what + "stiffness", "nonnegative")
+        if not 0 < checks.number(share, what + "share") <= 1:
+            raise SceneError(f"{what}share must be in (0, 1], got {share!r}")
+        self.name, self.step, self.share = name, step, float(share)
         self.first_point, self.second_point = np.asarray(first, float), np.asarray(second, float)
         self.tension, self.shortening, self.stiffness = tension, shortening, stiffness
         self.surfaces, self.anchored, self.bilateral = (first_surface, second_surface), anchored, bilateral
         self.factor = 0.0
 
-    def setup(self, solid):
+    def setup(self, solid: MixedSolid) -> None:
         self.a = MaterialNode(solid, self.first_point, self.surfaces[0])
         self.b = None if self.anchored else MaterialNode(solid, self.second_point, self.surfaces[1])
         self.comm = solid.comm
@@ -96,10 +101,10 @@ class Suture(Feature):
     def _ends(self):
         return self.a.position(), (self.second_point if self.anchored else self.b.position())
 
-    def set_load_factor(self, factor):
+    def set_load_factor(self, factor: float) -> None:
         self.factor = factor
 
-    def state_changed(self):
+    def state_changed(self) -> None:
         xa, xb = self._ends()
         self.length = np.linalg.norm(xb - xa)
         self.direction = (xb - xa) / self.length
@@ -116,7 +121,7 @@ class Suture(Feature):
         e = self.direction
         return self.slope * np.outer(e, e) + self.force / self.length * (np.eye(3) - np.outer(e, e))
 
-    def add_to_residual(self, b):
+    def add_to_residual(self, b: PETSc.Vec) -> None:
         if self.comm.rank != self.a.owner:  # one rank adds, PETSc sends rows to their owners
             return
         f = self.force * self.direction
@@ -124,7 +129,7 @@ class Suture(Feature):
         if self.b is not None:
             b.setValues(self.b.dofs, f, addv=PETSc.InsertMode.ADD_VALUES)
 
-    def add_to_jacobian(self, A):
+    def add_to_jacobian(self, A: PETSc.Mat) -> None:
         if self.comm.rank != self.a.owner:
             return
         K = self._block()
@@ -134,14 +139,14 @@ class Suture(Feature):
             A.setValues(self.a.dofs, self.b.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
             A.setValues(self.b.dofs, self.a.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
 
-    def coupling(self):
+    def coupling(self) -> tuple[np.ndarray, np.ndarray] | None:
         if self.comm.rank != self.a.owner:
             return None
         ends = [self.a.dofs] if self.b is None else [self.a.dofs, self.b.dofs]
         dofs = np.concatenate(ends)
         return np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs))
 
-    def report(self):
+    def report(self) -> dict:
         """The thread's tension, current and initial length, and the force the string puts on its
         second end in the model (-share T e; the first end takes +share T e)."""
         return {"tension": float(self.force / self.share), "share": self.share, "length": float(self.length),

@@ -11,7 +11,13 @@ unknown is idle and pinned to zero by the term -p^2 / (2 mu).
 Elements: on hexahedra the seed's Q1/P0 (8-node trilinear displacement, one pressure per
 element); on tetrahedra P2/P0 (quadratic displacement, one pressure per element, which is
 inf-sup stable). Other pairs can be named for convergence studies.
+
+A region's rest state may be changed by a prescribed deformation F_g (``prestretch``: a band
+shortened by the surgeon): its law is then ``materials.Prestretched``. The solid owns the laws
+in force (``laws``); the materials it was given stay as they were.
 """
+from __future__ import annotations
+
 import dataclasses
 
 import numpy as np
@@ -23,7 +29,7 @@ from petsc4py import PETSc
 
 from ..errors import SceneError
 from .kinematics import cauchy_stress, deformation_gradient, von_mises
-from .materials import MooneyRivlin
+from .materials import MooneyRivlin, Prestretched
 
 # A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
 # up after 10 s, too short for the eye's forms on a busy two-core machine.
@@ -41,14 +47,14 @@ class MixedSolid:
     """The solid: mesh, region materials, the mixed space W = (u, p) and its state w.
 
     Args:
-        mesh_data: the mesh with its named regions and surfaces (``mesh.MeshData``).
+        mesh_data: the mesh with its named regions and surfaces (``meshing.load.MeshData``).
         materials: region name -> material law (every region needs one).
         element: an ``ELEMENTS`` name; default by cell type.
     """
 
     mesh_data: object
     materials: dict
-    element: str = None
+    element: str | None = None
 
     def __post_init__(self):
         md = self.mesh_data
@@ -74,39 +80,50 @@ class MixedSolid:
         self.W = fem.FunctionSpace(msh, ufl.MixedElement([Ve, Qe]))
         self.w = fem.Function(self.W, name="state")
         self.u, self.p = ufl.split(self.w)
-        self.v, self.q = ufl.TestFunctions(self.W)
-        self.dx = ufl.Measure("dx", domain=msh, subdomain_data=md.cell_tags, metadata={"quadrature_degree": 2 * degree})
-        self.ds = ufl.Measure("ds", domain=msh, subdomain_data=md.facet_tags, metadata={"quadrature_degree": 2 * degree})
+        self.v = ufl.TestFunctions(self.W)[0]
+        quadrature = {"quadrature_degree": 2 * degree}
+        self.dx = ufl.Measure("dx", domain=msh, subdomain_data=md.cell_tags, metadata=quadrature)
+        self.ds = ufl.Measure("ds", domain=msh, subdomain_data=md.facet_tags, metadata=quadrature)
         self.F = deformation_gradient(self.u)
         self.X = ufl.SpatialCoordinate(msh)
+        self.laws = dict(self.materials)  # the laws in force, region by region (see ``prestretch``)
+        self._groups = None
 
     @property
-    def comm(self):
+    def comm(self) -> MPI.Comm:
         return self.mesh_data.mesh.comm
 
-    def law_groups(self):
+    def prestretch(self, region: str, F_g: ufl.core.expr.Expr) -> None:
+        """Change the rest state of ``region`` by the deformation F_g (a UFL tensor, which may
+        hold Constants that ramp): its law becomes ``Prestretched(law, F_g)``. Before the forms
+        are made (``potential``)."""
+        if self._groups is not None:
+            raise RuntimeError(f"prestretch of {region!r} after the solid's forms were made")
+        self.laws[region] = Prestretched(self.laws[region], F_g)
+
+    def law_groups(self) -> list:
         """[(regions, law)]: regions whose laws differ only in their constants share one law
         with element-wise (DG0) constants, so the eye's seven neo-Hookean tissues make one
         integral, not seven (a smaller compiled form, less assembly work)."""
-        if not hasattr(self, "_groups"):
+        if self._groups is None:
             by_kind = {}
-            for region, law in self.materials.items():
+            for region, law in self.laws.items():
                 key = tuple(sorted(law.c)) if type(law) is MooneyRivlin else region
                 by_kind.setdefault(key, []).append(region)
             self._groups = []
             for regions in by_kind.values():
-                law = self.materials[regions[0]]
+                law = self.laws[regions[0]]
                 if len(regions) > 1:
                     fields = {}
                     for exponents in law.c:
                         fields[exponents] = fem.Function(self._cell_space())
                         for region in regions:
-                            fields[exponents].x.array[self.mesh_data.cells(region)] = self.materials[region].c[exponents]
+                            fields[exponents].x.array[self.mesh_data.cells(region)] = self.laws[region].c[exponents]
                     law = MooneyRivlin(fields)
                 self._groups.append((regions, law))
         return self._groups
 
-    def potential(self):
+    def potential(self) -> ufl.Form:
         """The stored energy of all regions with the incompressibility constraint."""
         J = ufl.det(self.F)
         terms = []
@@ -118,7 +135,7 @@ class MixedSolid:
                 terms.append((law.strain_energy(self.F) - self.p**2 / (2 * law.shear_modulus)) * dx)
         return sum(terms)
 
-    def first_piola(self, law):
+    def first_piola(self, law) -> ufl.core.expr.Expr:
         """P = dW/dF - p J F^-T (the pressure term only for incompressible laws)."""
         F = ufl.variable(self.F)
         P = ufl.diff(law.strain_energy(F), F)
@@ -126,18 +143,18 @@ class MixedSolid:
             P = P - self.p * ufl.det(F) * ufl.inv(F).T
         return P
 
-    def current_normal_area(self):
+    def current_normal_area(self) -> ufl.core.expr.Expr:
         """n da = J F^-T N dA on the boundary (Nanson's formula)."""
         N = ufl.FacetNormal(self.mesh_data.mesh)
         return ufl.det(self.F) * ufl.inv(self.F).T * N
 
-    def surface_dofs(self, surface):
+    def surface_dofs(self, surface: str) -> list[np.ndarray]:
         """Local indices in W of the displacement dofs on a named surface, per component."""
         msh = self.mesh_data.mesh
         facets = self.mesh_data.facets(surface)
         return [fem.locate_dofs_topological(self.W.sub(0).sub(i), msh.topology.dim - 1, facets) for i in range(3)]
 
-    def component(self, i):
+    def component(self, i: int) -> tuple:
         """(V_i, its dofs' indices in W) of displacement component i. Collapsed once; the
         first call is collective, so make it during setup."""
         if not hasattr(self, "_components"):
@@ -145,10 +162,10 @@ class MixedSolid:
         return self._components[i]
 
     @property
-    def num_owned(self):
+    def num_owned(self) -> int:
         return self.W.dofmap.index_map.size_local
 
-    def mises_expression(self):
+    def mises_expression(self) -> ufl.core.expr.Expr:
         """Von Mises stress of the Cauchy stress, law by law, as one UFL expression."""
         sigma = 0
         for regions, law in self.law_groups():
@@ -168,7 +185,7 @@ class MaterialNode:
     """The mesh node nearest to a reference point (on a surface, if given): its global
     displacement dofs and its current position, known on every rank."""
 
-    def __init__(self, solid, point, surface=None):
+    def __init__(self, solid: MixedSolid, point, surface: str | None = None):
         self.solid = solid
         W = solid.W
         owned = solid.num_owned
@@ -195,7 +212,7 @@ class MaterialNode:
         self.dofs, self.reference = solid.comm.bcast(data, root=self.owner)
         self.dofs = np.asarray(self.dofs, dtype=PETSc.IntType)
 
-    def position(self):
+    def position(self) -> np.ndarray:
         """Current position (collective)."""
         u = self.solid.w.x.array[self.local] if self.local is not None else None
         return self.reference + self.solid.comm.bcast(u, root=self.owner)
@@ -213,7 +230,7 @@ class JacobianGuard:
         num_cells = msh.topology.index_map(msh.topology.dim).size_local
         self._midpoints = compute_midpoints(msh, msh.topology.dim, np.arange(num_cells, dtype=np.int32))
 
-    def check(self):
+    def check(self) -> tuple[float, np.ndarray]:
         """Return (min det F over the mesh, reference location of that element) on every rank."""
         self.detF.interpolate(self._expr)
         values = self.detF.x.array[: len(self._midpoints)]

@@ -11,6 +11,7 @@ in exactly one physical group, and lower-dimensional groups or untagged elements
 """
 import dataclasses
 import os
+from collections.abc import Callable
 
 import dolfinx
 import gmsh
@@ -51,7 +52,7 @@ class MeshData:
     source: str
     parameters: dict = dataclasses.field(default_factory=dict)
 
-    def facets(self, name):
+    def facets(self, name: str) -> np.ndarray:
         """Local indices of the facets of a named surface (ghosts included).
 
         Raises:
@@ -59,7 +60,7 @@ class MeshData:
         """
         return self.facet_tags.find(_lookup(self.surfaces, name, "surface", self.source))
 
-    def cells(self, name):
+    def cells(self, name: str) -> np.ndarray:
         """Local indices of the cells of a named region (ghosts included).
 
         Raises:
@@ -68,7 +69,7 @@ class MeshData:
         return self.cell_tags.find(_lookup(self.regions, name, "region", self.source))
 
 
-def load_mesh(path, comm=MPI.COMM_WORLD):
+def load_mesh(path: str | os.PathLike, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
     """Read a gmsh .msh file (MSH 4.1 or 2.2) on rank 0 and distribute it over ``comm``.
 
     Collective. Rank 0 opens and closes its own gmsh session, so it must not be called while
@@ -108,7 +109,7 @@ def load_mesh(path, comm=MPI.COMM_WORLD):
     return _distribute(comm, _on_rank0(comm, read, source), source)
 
 
-def mesh_from_gmsh_model(model, comm, source):
+def mesh_from_gmsh_model(model, comm: MPI.Comm, source: str) -> MeshData:
     """Distribute a gmsh model that exists on rank 0 over ``comm``.
 
     Collective; ``model`` (normally the ``gmsh.model`` module) is only used on rank 0 and is not
@@ -330,9 +331,8 @@ def _tags(mesh, dim, entities, values):
     return tags
 
 
-def built_mesh(build, comm=MPI.COMM_WORLD, **options):
+def built_mesh(build: Callable, comm: MPI.Comm = MPI.COMM_WORLD, **options) -> MeshData:
     """Run a gmsh builder (``eyeball_fenicsx.meshing.builders.*.build_*``) on rank 0 and distribute its mesh."""
-    import gmsh
     source = f"builder {build.__name__}"
     if comm.rank == 0:
         gmsh.initialize()

@@ -1,18 +1,19 @@
 """Pictures of the eye model: its meridional section with the tissues coloured or its stress,
 the retina's gap from the choroid over a detachment, and the eye measures over the steps of a
-run. Files appear atomically (output.py)."""
+run. Files appear atomically (output/files.py). The eye measures (output/measures.py) draw
+the pictures of a run after each step and at its end; these functions only draw what they are
+given."""
 import numpy as np
 from dolfinx import cpp
 
 from .files import flatten, plot_curves, save_figure_atomic
-from .measures import DETACHED_GAP, polar_angle
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
 TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body": "sienna", "choroid": "firebrick",
                   "retina": "hotpink", "optic_nerve": "gold", "lens": "steelblue", "zonule": "seagreen"}
 
 
-def meridional_section(mesh_data, tolerance=1e-9, solid=None, field=None):
+def meridional_section(mesh_data, tolerance: float = 1e-9, solid=None, field=None) -> tuple:
     """Faces of the mesh in the plane y = 0 (the section through the optic axis at azimuth 0 and 180).
 
     Collective.
@@ -59,7 +60,7 @@ def meridional_section(mesh_data, tolerance=1e-9, solid=None, field=None):
             np.concatenate([g[2] for g in gathered]) if field is not None else None)
 
 
-def eye_section_png(mesh_data, path, title=None):
+def eye_section_png(mesh_data, path: str, title: str | None = None) -> None:
     """Draw the meridional section of an eye mesh with its tissues coloured, as a PNG (matplotlib Agg).
 
     Collective; rank 0 writes the file.
@@ -95,7 +96,7 @@ def eye_section_png(mesh_data, path, title=None):
     plt.close(figure)
 
 
-def stress_section_png(solid, mises, path, title=None):
+def stress_section_png(solid, mises, path: str, title: str | None = None) -> None:
     """Draw the deformed meridional section coloured by the von Mises stress (MPa), as the
     seed shows its results. Collective; rank 0 writes the file.
 
@@ -127,26 +128,23 @@ def stress_section_png(solid, mises, path, title=None):
     plt.close(figure)
 
 
-def retina_gap_png(measures, path, title=None):
-    """Map the retina-choroid gap (mm, as ``EyeMeasures`` last measured it) over the detached
-    retina, flattened: each node of "retina_outer" at its reference azimuth and polar angle
-    from the posterior pole. Collective; rank 0 writes the file (nothing without a detachment).
+def retina_gap_png(azimuth: np.ndarray, polar: np.ndarray, gap: np.ndarray, path: str, detached: float,
+                   title: str | None = None) -> None:
+    """Map the retina-choroid gap (mm) over the detached retina, flattened: each node of
+    "retina_outer" at its reference azimuth and polar angle from the posterior pole (degrees),
+    with the contour of ``detached``, the gap beyond which the retina counts as detached. Call
+    on one rank.
     """
-    X, gap = measures.retina_gap_map()
-    if X is None:
-        return
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    polar = np.degrees(polar_angle(X))
-    azimuth = np.degrees(np.arctan2(X[:, 1], X[:, 0]))
     figure, axes = plt.subplots(figsize=(8, 4.5))
     levels = np.linspace(min(gap.min(), 0.0), max(gap.max(), 1e-3), 21)
     filled = axes.tricontourf(azimuth, polar, gap, levels=levels, cmap="viridis")
-    if gap.min() < DETACHED_GAP < gap.max():
-        axes.tricontour(azimuth, polar, gap, levels=[DETACHED_GAP], colors="white", linewidths=1.0)
-    figure.colorbar(filled, ax=axes, label=f"retina-choroid gap (mm); white: {DETACHED_GAP} mm, detached beyond")
+    if gap.min() < detached < gap.max():
+        axes.tricontour(azimuth, polar, gap, levels=[detached], colors="white", linewidths=1.0)
+    figure.colorbar(filled, ax=axes, label=f"retina-choroid gap (mm); white: {detached} mm, detached beyond")
     axes.set_xlabel("azimuth (deg)")
     axes.set_ylabel("polar angle from the posterior pole (deg)")
     if title:
@@ -156,7 +154,7 @@ def retina_gap_png(measures, path, title=None):
     plt.close(figure)
 
 
-def eye_measures_png(steps, path):
+def eye_measures_png(steps: list[dict], path: str) -> None:
     """Curves of the scalar eye measures over the steps of a run (one plot a measure, one
     point a step, in the order of ``steps``). Call on one rank.
 

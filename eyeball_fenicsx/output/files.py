@@ -1,4 +1,4 @@
-"""What a run writes: probes, field output (XDMF for ParaView), summary.json and pictures.
+"""What a run writes: field output (XDMF for ParaView), summary.json and pictures.
 
 Every file appears atomically: summary.json and the PNG pictures are written to a temporary
 name and renamed; the XDMF/HDF5 pair is written in a hidden folder and moved into place when
@@ -8,53 +8,28 @@ import json
 import os
 import shutil
 
-import numpy as np
-from dolfinx import fem, geometry, io
+from dolfinx import fem, io
 from mpi4py import MPI
 
-
-class Probes:
-    """Displacement at material points given by their reference coordinates."""
-
-    def __init__(self, solid, points: dict):
-        self.solid = solid
-        msh = solid.mesh_data.mesh
-        tree = geometry.BoundingBoxTree(msh, msh.topology.dim)
-        num_owned_cells = msh.topology.index_map(msh.topology.dim).size_local
-        self.cells = {}
-        for name, point in points.items():
-            x = np.asarray(point, dtype=float).reshape(1, 3)
-            candidates = geometry.compute_collisions(tree, x)
-            cells = geometry.compute_colliding_cells(msh, candidates, x).links(0)
-            cells = cells[cells < num_owned_cells]
-            # the lowest rank that holds the point evaluates it
-            owner = solid.comm.allreduce(solid.comm.rank if len(cells) else solid.comm.size, op=MPI.MIN)
-            if owner == solid.comm.size:
-                from ..errors import SceneError
-                raise SceneError(f"probe {name!r}: point {list(point)} is not inside the mesh {solid.mesh_data.source}")
-            self.cells[name] = (x, cells[0] if solid.comm.rank == owner else None, owner)
-
-    def displacements(self):
-        u = self.solid.w.sub(0)
-        result = {}
-        for name, (x, cell, owner) in self.cells.items():
-            value = u.eval(x, [cell])[:3] if cell is not None else None
-            result[name] = [float(v) for v in self.solid.comm.bcast(value, root=owner)]
-        return result
+from .observer import Observer
 
 
-class FieldOutput:
-    """Displacement, pressure, von Mises stress and region tags per step, in XDMF."""
+class FieldOutput(Observer):
+    """Displacement, pressure, von Mises stress and region tags after each step, in XDMF
+    (``<name>.xdmf`` and ``.h5`` in the run's folder; time k is the end of step k)."""
 
-    def __init__(self, solid, out_dir, name="fields"):
+    def __init__(self, name: str = "fields"):
+        self.name = name
+
+    def start(self, scene: str, solid, problem, out_dir: str) -> None:
         self.solid, self.comm = solid, solid.comm
-        self.final = [os.path.join(out_dir, name + ext) for ext in (".xdmf", ".h5")]
-        self.hidden = os.path.join(out_dir, f".{name}.partial")
+        self.final = [os.path.join(out_dir, self.name + ext) for ext in (".xdmf", ".h5")]
+        self.hidden = os.path.join(out_dir, f".{self.name}.partial")
         if self.comm.rank == 0:
             os.makedirs(self.hidden, exist_ok=True)
         self.comm.barrier()
         msh = solid.mesh_data.mesh
-        self.file = io.XDMFFile(self.comm, os.path.join(self.hidden, name + ".xdmf"), "w")
+        self.file = io.XDMFFile(self.comm, os.path.join(self.hidden, self.name + ".xdmf"), "w")
         self.file.write_mesh(msh)
         solid.mesh_data.cell_tags.name = "region"
         self.file.write_meshtags(solid.mesh_data.cell_tags)
@@ -66,15 +41,15 @@ class FieldOutput:
         self._u_expr = fem.Expression(solid.u, self.displacement.function_space.element.interpolation_points())
         self._p_expr = fem.Expression(solid.p, points)
 
-    def write(self, time):
+    def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
         self.displacement.interpolate(self._u_expr)
         self.pressure.interpolate(self._p_expr)
         self.mises.interpolate(self._mises_expr)
         for f in (self.displacement, self.pressure, self.mises):
-            self.file.write_function(f, time)
-        return self.mises
+            self.file.write_function(f, float(index + 1))
 
-    def close(self):
+    def finish(self, summary: dict) -> None:
+        """Close the files and move them into place."""
         self.file.close()
         self.comm.barrier()
         if self.comm.rank == 0:
@@ -84,7 +59,7 @@ class FieldOutput:
         self.comm.barrier()
 
 
-def write_text_atomic(path, text, comm=MPI.COMM_WORLD):
+def write_text_atomic(path: str, text: str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     """Write a text file on rank 0 to a temporary name, then rename it into place."""
     if comm.rank == 0:
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
@@ -95,12 +70,12 @@ def write_text_atomic(path, text, comm=MPI.COMM_WORLD):
     comm.barrier()
 
 
-def write_json_atomic(path, data, comm=MPI.COMM_WORLD):
+def write_json_atomic(path: str, data: dict, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     """Write JSON atomically (see ``write_text_atomic``); NaN is refused, never written."""
     write_text_atomic(path, json.dumps(data, indent=1, allow_nan=False) if comm.rank == 0 else "", comm)
 
 
-def save_figure_atomic(figure, path, dpi=150):
+def save_figure_atomic(figure, path: str, dpi: int = 150) -> None:
     """Save a matplotlib figure as a PNG under a temporary name, then rename it into place
     (call on the one rank that draws)."""
     tmp = f"{path}.tmp{os.getpid()}.png"
@@ -108,7 +83,7 @@ def save_figure_atomic(figure, path, dpi=150):
     os.replace(tmp, path)
 
 
-def plot_curves(path, x, curves, xlabel, xticklabels=None):
+def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xticklabels: list[str] | None = None) -> None:
     """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank).
 
     Args:
@@ -134,7 +109,7 @@ def plot_curves(path, x, curves, xlabel, xticklabels=None):
     plt.close(figure)
 
 
-def flatten(entries, prefix=""):
+def flatten(entries: dict, prefix: str = "") -> dict:
     """{"a": 1, "b": {"c": 2}, "d": [3, 4]} -> {"a": 1, "b.c": 2, "d.0": 3, "d.1": 4}."""
     flat = {}
     for key, value in entries.items():

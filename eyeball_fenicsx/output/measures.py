@@ -58,8 +58,16 @@ With a detachment (the retina's outer surface "retina_outer" and the choroid's i
   both in the current configuration (n their outward normals; a cut plane through the origin
   adds nothing, so a half model reports half of the eye's).
 
-The retina's gap map (``retina_gap_map``) feeds the picture ``retina_gap_<step>.png``.
+Data path: ``EyeMeasures`` observes a run (output/observer.py): after each step (the failed
+one too) it measures the state into the step's entry of summary.json, under "eye"; with an
+output folder it draws, after each converged step, ``section_<step>.png`` (the deformed
+meridional section coloured by von Mises stress) and with a detachment ``retina_gap_<step>.png``
+(the retina's gap map, ``retina_gap_map``, flattened), and at the end ``eye_measures.png`` (the
+scalar measures over the steps): output/eye_pictures.py.
 """
+import os
+import re
+
 import numpy as np
 import ufl
 from dolfinx import fem, la
@@ -69,8 +77,9 @@ from petsc4py import PETSc
 from scipy.spatial import cKDTree
 
 from ..errors import SceneError
-from ..features.base import Feature
 from ..mechanics.solid import MaterialNode
+from .eye_pictures import eye_measures_png, retina_gap_png, stress_section_png
+from .observer import Observer
 
 MMHG_PER_MPA = 7500.62
 DIOPTRES_PER_MM = -2.7
@@ -83,7 +92,7 @@ DETACHED_GAP = 0.01
 PENETRATION_TOLERANCE = DETACHED_GAP
 
 
-def ocular_rigidity(injected, iop, low=15.0, high=35.0):
+def ocular_rigidity(injected: list[float], iop: list[float], low: float = 15.0, high: float = 35.0) -> float:
     """Friedenwald's ocular rigidity K in ln(P2/P1) = K (V2 - V1): the least-squares slope of
     ln(IOP) against the injected volume over the states with ``low <= IOP <= high`` (mmHg), as
     Pallikaris et al. fitted living eyes over 10-35 mmHg (IOVS 2005;46:409). Natural logarithm;
@@ -95,13 +104,13 @@ def ocular_rigidity(injected, iop, low=15.0, high=35.0):
     return float(np.polyfit(injected[fitted], np.log(iop[fitted]), 1)[0])
 
 
-def polar_angle(X):
+def polar_angle(X: np.ndarray) -> np.ndarray:
     """Polar angle (rad) of points seen from the origin, from the posterior pole (-z)."""
     return np.arccos(np.clip(-X[:, 2] / np.linalg.norm(X, axis=1), -1.0, 1.0))
 
 
-class EyeMeasures(Feature):
-    """Eye measures of the current state (no contribution to the equations).
+class EyeMeasures(Observer):
+    """Eye measures of the current state, and the pictures of a run.
 
     Args:
         anterior, posterior: reference points near the corneal apex and the posterior pole
@@ -112,11 +121,9 @@ class EyeMeasures(Feature):
             ``retina_gap_max_mm`` and ``detached_area_mm2`` (both or neither).
     """
 
-    section = "eye"
-    name = None  # the report is the section itself
-
-    def __init__(self, anterior, posterior, anterior_surface=None, posterior_surface=None, vitreous=None,
-                 buckle=None, sclera="sclera_outer", retina=None, choroid=None):
+    def __init__(self, anterior: list[float], posterior: list[float], anterior_surface: str | None = None,
+                 posterior_surface: str | None = None, vitreous=None, buckle: str | None = None,
+                 sclera: str = "sclera_outer", retina: str | None = None, choroid: str | None = None):
         self.points = (anterior, posterior)
         self.surfaces = (anterior_surface, posterior_surface)
         self.vitreous = vitreous
@@ -129,7 +136,8 @@ class EyeMeasures(Feature):
         if retina is not None:
             self.extra.append(self._detachment)
 
-    def setup(self, solid):
+    def setup(self, solid) -> None:
+        """Find the measured nodes of ``solid`` and build the measures' forms (collective)."""
         self.solid = solid
         self.ends = [MaterialNode(solid, p, s) for p, s in zip(self.points, self.surfaces)]
         self.initial_length = np.linalg.norm(self.ends[0].reference - self.ends[1].reference)
@@ -139,7 +147,8 @@ class EyeMeasures(Feature):
         self.step_index = -1
         msh = solid.mesh_data.mesh
         self.mises = fem.Function(fem.FunctionSpace(msh, ("DG", 0)))
-        self._mises_expr = None  # built on first use: the materials may still change in setup
+        points = self.mises.function_space.element.interpolation_points()
+        self._mises_expr = fem.Expression(solid.mises_expression(), points)
         self.num_cells = msh.topology.index_map(msh.topology.dim).size_local
         if self.buckle is not None or self.retina is not None:
             self._setup_nodal(solid)
@@ -231,7 +240,7 @@ class EyeMeasures(Feature):
         result["subretinal_volume_mm3"] = float(subretinal)
         return result
 
-    def retina_gap_map(self):
+    def retina_gap_map(self) -> tuple:
         """Collective. On rank 0, (reference positions, gap) of the retina's nodes as last
         measured; (None, None) elsewhere or without a detachment."""
         if self.retina is None or not hasattr(self, "retina_gap"):
@@ -241,10 +250,8 @@ class EyeMeasures(Feature):
             return None, None
         return np.concatenate([g[0] for g in gathered]), np.concatenate([g[1] for g in gathered])
 
-    def begin_step(self, step_index):
-        self.step_index = step_index
-
-    def report(self):
+    def report(self) -> dict:
+        """Collective: the eye measures of the current state (``step_index`` the step it ends)."""
         length = float(np.linalg.norm(self.ends[0].position() - self.ends[1].position()))
         if self.step_index == self.preoperative_step:
             self.preoperative_length = length
@@ -255,9 +262,6 @@ class EyeMeasures(Feature):
                   "refraction_change_from_mesh_D": DIOPTRES_PER_MM * from_mesh}
         if self.vitreous is not None:
             result["iop_mmHg"] = self.vitreous.report()["pressure"] * MMHG_PER_MPA
-        if self._mises_expr is None:
-            self._mises_expr = fem.Expression(self.solid.mises_expression(),
-                                              self.mises.function_space.element.interpolation_points())
         self.mises.interpolate(self._mises_expr)
         values = self.mises.x.array
         comm = self.solid.comm
@@ -270,3 +274,29 @@ class EyeMeasures(Feature):
         for measure in self.extra:
             result.update(measure())
         return result
+
+    # -- observing a run (output/observer.py) ------------------------------------------------
+    def start(self, scene: str, solid, problem, out_dir: str | None) -> None:
+        self.setup(solid)
+        self.scene, self.out_dir = scene, out_dir
+
+    def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
+        self.step_index = index
+        entry["eye"] = self.report()
+        if self.out_dir and converged:  # the stress and the gap just measured are those drawn
+            self._draw(step)
+
+    def _draw(self, step: str) -> None:
+        """Collective: the section coloured by the stress and the retina's gap map of a step."""
+        label = re.sub(r"[^\w.-]+", "_", step)
+        stress_section_png(self.solid, self.mises, os.path.join(self.out_dir, f"section_{label}.png"),
+                           title=f"{self.scene}, step {step}: von Mises stress (MPa)")
+        X, gap = self.retina_gap_map()
+        if X is not None:
+            retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
+                           os.path.join(self.out_dir, f"retina_gap_{label}.png"), DETACHED_GAP,
+                           title=f"{self.scene}, step {step}: the detached retina")
+
+    def finish(self, summary: dict) -> None:
+        if self.out_dir and self.solid.comm.rank == 0:
+            eye_measures_png(summary["steps"], os.path.join(self.out_dir, "eye_measures.png"))

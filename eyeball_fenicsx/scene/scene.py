@@ -1,4 +1,5 @@
-"""A scene is one simulation: a mesh, region materials, features, probes, load steps.
+"""A scene is one simulation: a mesh, region materials, features, probes, load steps and
+observers.
 
 Python API::
 
@@ -11,28 +12,34 @@ Python API::
 Only what the scene holds is assembled: a scene without cavities or contact solves
 exactly the bare hyperelastic system.
 
-A scene with eye measures (an ``EyeMeasures`` feature: the ``[eye]`` table of a scene file)
-also draws, into the output folder, ``section_<step>.png`` after each step (the deformed
-meridional section coloured by von Mises stress), ``retina_gap_<step>.png`` with a detachment
-(the retina's gap from the choroid, flattened) and ``eye_measures.png`` at the end (the scalar
-eye measures over the steps).
+Data path of a run: scene -> problem -> Newton per step -> observers -> outputs. ``build``
+makes the solid (mechanics/solid.py) and the problem, the solid plus the scene's features
+(system/problem.py). ``run`` advances each step of the load path with Newton
+(system/stepping.py, system/newton.py); after each step, converged or failed, the observers
+read the state (output/observer.py): the probes and the features' reports (output/reports.py),
+then the scene's ``observers`` (the eye measures of a scene file's ``[eye]`` table, which also
+draw its pictures: output/measures.py), then the field output (output/files.py). They fill the
+step's entry of summary.json, which is written after every step and at the end. Each load
+increment is logged (output/console.py prints it on rank 0).
 """
-import dataclasses
-import os
-import re
-import time
+from __future__ import annotations
 
-from mpi4py import MPI
+import dataclasses
+import time
+from typing import TYPE_CHECKING
 
 from ..errors import ConvergenceError, SceneError
-from ..features.loads import Dirichlet
 from ..mechanics.solid import MixedSolid
-from ..output.eye_pictures import eye_measures_png, retina_gap_png, stress_section_png
-from ..output.files import FieldOutput, Probes, write_json_atomic
-from ..output.measures import EyeMeasures
+from ..output.console import print_on_rank0
+from ..output.files import FieldOutput, write_json_atomic
+from ..output.reports import FeatureReports, Probes
 from ..system.newton import NewtonSolver
 from ..system.problem import Problem
 from ..system.stepping import SolverSettings, run_step
+
+if TYPE_CHECKING:
+    from ..meshing.load import MeshData
+    from ..output.observer import Observer
 
 
 @dataclasses.dataclass
@@ -40,104 +47,102 @@ class Step:
     """One step of the load path: the features whose ``step`` is this one ramp in it."""
 
     name: str
-    increments: int = None  # default: the solver's
-
-
-def _print_on_rank0(message):
-    if MPI.COMM_WORLD.rank == 0:
-        print(message, flush=True)
+    increments: int | None = None  # default: the solver's
 
 
 @dataclasses.dataclass
 class Scene:
+    """One simulation.
+
+    Args:
+        name: the scene's name (in summary.json and the pictures' titles).
+        mesh: the distributed mesh with its regions and surfaces (meshing/load.py).
+        materials: {region: material law}.
+        features: what acts on the solid (supports, loads, cavities, contact...), in this order.
+        probes: {name: reference point} where the displacement is reported.
+        steps: the load path.
+        solver: the load stepping's settings.
+        element: the mixed element, a name of ``mechanics.solid.ELEMENTS`` (None: by cell type).
+        observers: what else reads the state after each step (``EyeMeasures``).
+    """
+
     name: str
-    mesh: object  # mesh.MeshData
+    mesh: MeshData
     materials: dict
     features: list = dataclasses.field(default_factory=list)
-    probes: dict = dataclasses.field(default_factory=dict)
-    steps: list = dataclasses.field(default_factory=lambda: [Step("load")])
+    probes: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+    steps: list[Step] = dataclasses.field(default_factory=lambda: [Step("load")])
     solver: SolverSettings = dataclasses.field(default_factory=SolverSettings)
-    element: str = None
-    log: object = _print_on_rank0
+    element: str | None = None
+    observers: list[Observer] = dataclasses.field(default_factory=list)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for f in self.features:
             if not 0 <= f.step < len(self.steps):
                 raise SceneError(f"{type(f).__name__} {f.name!r} ramps in step {f.step}, "
                                  f"but the scene has {len(self.steps)} step(s)")
 
-    def build(self):
+    def build(self) -> Scene:
         """Create the solid, the Newton problem and the solver (compiles the forms)."""
         self.solid = MixedSolid(self.mesh, self.materials, self.element)
         self.problem = Problem(self.solid, self.features)
         self.newton = NewtonSolver(self.problem)
-        self.probe_points = Probes(self.solid, self.probes)
         return self
 
-    def run(self, out_dir=None):
+    def run(self, out_dir: str | None = None) -> dict:
         """Solve every step; write fields and summary.json into out_dir (if given).
 
         Returns the summary dict. Raises ConvergenceError (after writing the summary with
         ``"ok": false`` and the last converged state) if a step fails.
         """
         start = time.perf_counter()
+        print_on_rank0()
         if not hasattr(self, "problem"):
             self.build()
-        comm = self.solid.comm
-        msh = self.mesh.mesh
-        summary = {"ok": True, "scene": self.name, "ranks": comm.size,
-                   "cells": msh.topology.index_map(msh.topology.dim).size_global,
-                   "dofs": self.problem.n_global + self.problem.m, "element": self.solid.element,
-                   "wall_s": 0.0, "steps": []}
-        fields = FieldOutput(self.solid, out_dir) if out_dir else None
-        eye = next((f for f in self.features if isinstance(f, EyeMeasures)), None) if out_dir else None
+        summary = self._summary()
+        observers = [Probes(self.probes), FeatureReports(), *self.observers, *([FieldOutput()] if out_dir else [])]
+        for observer in observers:
+            observer.start(self.name, self.solid, self.problem, out_dir)
         try:
             for index, step in enumerate(self.steps):
-                entry = {"name": step.name, "increments": []}
-                summary["steps"].append(entry)
-                try:
-                    done = run_step(self.problem, self.newton, self.solver, index, step.name,
-                                    step.increments or self.solver.increments, self.log)
-                except ConvergenceError as error:
-                    entry["increments"] = [dataclasses.asdict(i) for i in error.increments]
-                    entry.update(self.measure())
-                    summary["ok"] = False
-                    summary["error"] = str(error)
-                    raise
-                finally:
-                    if fields:
-                        fields.write(float(index + 1))
-                entry["increments"] = [dataclasses.asdict(i) for i in done]
-                entry.update(self.measure())
-                if eye:  # its stress and gap are those of this state: measure() just updated them
-                    label = re.sub(r"[^\w.-]+", "_", step.name)
-                    stress_section_png(self.solid, eye.mises, os.path.join(out_dir, f"section_{label}.png"),
-                                       title=f"{self.name}, step {step.name}: von Mises stress (MPa)")
-                    retina_gap_png(eye, os.path.join(out_dir, f"retina_gap_{label}.png"),
-                                   title=f"{self.name}, step {step.name}: the detached retina")
+                self._run_step(index, step, summary, observers)
                 if out_dir:
                     summary["wall_s"] = time.perf_counter() - start
-                    write_json_atomic(f"{out_dir}/summary.json", summary, comm)
+                    write_json_atomic(f"{out_dir}/summary.json", summary, self.solid.comm)
         finally:
             summary["wall_s"] = time.perf_counter() - start
-            if fields:
-                fields.close()
-            if eye and comm.rank == 0:
-                eye_measures_png(summary["steps"], os.path.join(out_dir, "eye_measures.png"))
+            for observer in observers:
+                observer.finish(summary)
             if out_dir:
-                write_json_atomic(f"{out_dir}/summary.json", summary, comm)
+                write_json_atomic(f"{out_dir}/summary.json", summary, self.solid.comm)
         return summary
 
-    def measure(self):
-        """Probes, reactions and every feature's report at the current state."""
-        result = {"probes": self.probe_points.displacements(), "reactions": {}}
-        residual = self.problem.assemble_residual_unconstrained().array_r
-        for f in self.features:
-            if isinstance(f, Dirichlet) and f.active:
-                result["reactions"][f.name] = f.reaction(residual)
-            report = f.report()
-            if report is not None and f.name is None:  # the report is the whole section
-                result.setdefault(f.section, {}).update(report)
-            elif report is not None:
-                result.setdefault(f.section, {})[f.name] = report
-        return result
+    def _summary(self) -> dict:
+        """The head of summary.json: the scene, its size, and no step yet."""
+        msh = self.mesh.mesh
+        return {"ok": True, "scene": self.name, "ranks": self.solid.comm.size,
+                "cells": msh.topology.index_map(msh.topology.dim).size_global,
+                "dofs": self.problem.n_global + self.problem.m, "element": self.solid.element,
+                "wall_s": 0.0, "steps": []}
+
+    def _run_step(self, index: int, step: Step, summary: dict, observers: list[Observer]) -> None:
+        """Step ``index`` of the load path, then its entry of the summary from the observers
+        (also when it fails: then the state is the last converged one)."""
+        entry = {"name": step.name, "increments": []}
+        summary["steps"].append(entry)
+        try:
+            done = run_step(self.problem, self.newton, self.solver, index, step.name,
+                            step.increments or self.solver.increments)
+        except ConvergenceError as error:
+            self._observe(observers, step, index, entry, error.increments, converged=False)
+            summary["ok"] = False
+            summary["error"] = str(error)
+            raise
+        self._observe(observers, step, index, entry, done, converged=True)
+
+    @staticmethod
+    def _observe(observers: list[Observer], step: Step, index: int, entry: dict, increments: list,
+                 converged: bool) -> None:
+        entry["increments"] = [dataclasses.asdict(i) for i in increments]
+        for observer in observers:
+            observer.after_step(step.name, index, entry, converged)

@@ -3,70 +3,35 @@
     eyeball-fenicsx sweep SCENE.toml --parameter band.0.reduction --values 2 4 6 8 --out DIR
 
 The parameter is a dotted path into the scene file (table keys, and array indices for
-``[[...]]`` tables). Each variant runs in the same MPI job (``DIR/<k>/summary.json``); a
-variant that does not converge is a row with ``ok = false``. DIR/sweep.csv holds the final
-"eye" predictions of every variant and DIR/sweep.png plots them against the parameter.
+``[[...]]`` tables), replaced in each variant by ``load_scene``'s overrides (overrides.py).
+Each variant runs in the same MPI job (``DIR/<k>/summary.json``); a variant that does not
+converge is a row with ``ok = false``. DIR/sweep.csv holds the final "eye" predictions of
+every variant and DIR/sweep.png plots them against the parameter.
 """
-import copy
+import json
 import os
-import tomllib
+from collections.abc import Sequence
+from typing import Any
 
-import tomli_w
 from mpi4py import MPI
 
-from ..errors import ConvergenceError, SceneError
-from ..output.files import flatten
+from ..errors import ConvergenceError
+from ..output.files import flatten, plot_curves, write_text_atomic
+from .loader import load_scene
 
 
-def set_parameter(data, path, value):
-    """Set the entry at a dotted path (``"band.0.reduction"``) of a parsed scene."""
-    *parents, last = path.split(".")
-    node = data
-    for key in parents:
-        try:
-            node = node[int(key)] if isinstance(node, list) else node[key]
-        except (KeyError, IndexError, ValueError):
-            raise SceneError(f"sweep: parameter {path!r} is not in the scene (no {key!r})") from None
-    if isinstance(node, list):
-        raise SceneError(f"sweep: parameter {path!r} names a whole array, not a value")
-    if last not in node:
-        raise SceneError(f"sweep: parameter {path!r} is not in the scene (no {last!r}); "
-                         f"that table has {sorted(node)}")
-    node[last] = value
-
-
-def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
+def run_sweep(scene_path: str, parameter: str, values: Sequence[Any], out_dir: str,
+              comm: MPI.Comm = MPI.COMM_WORLD) -> list[dict[str, Any]]:
     """Run the variants; write sweep.csv and sweep.png; return the rows."""
-    from ..output.files import write_text_atomic
-    from .loader import load_scene
-    if not os.path.isfile(scene_path):
-        raise SceneError(f"scene file {scene_path} does not exist")
-    with open(scene_path, "rb") as f:
-        data = tomllib.load(f)
-    tag = comm.bcast(os.getpid(), root=0)
     rows = []
     for k, value in enumerate(values):
-        variant = copy.deepcopy(data)
-        set_parameter(variant, parameter, value)
-        # beside the original, so that relative mesh paths still resolve
-        path = os.path.join(os.path.dirname(os.path.abspath(scene_path)), f".sweep-{tag}-{k}.toml")
-        if comm.rank == 0:
-            with open(path, "wb") as f:
-                tomli_w.dump(variant, f)
-        comm.barrier()
+        scene = load_scene(scene_path, comm, overrides={parameter: value})
+        out = os.path.join(out_dir, f"{k:02d}")
         try:
-            scene = load_scene(path, comm)
-        finally:
-            comm.barrier()
-            if comm.rank == 0:
-                os.remove(path)
-        try:
-            summary = scene.run(os.path.join(out_dir, f"{k:02d}"))
-            ok = True
+            summary, ok = scene.run(out), True
         except ConvergenceError:
             ok = False
-            with open(os.path.join(out_dir, f"{k:02d}", "summary.json")) as f:
-                import json
+            with open(os.path.join(out, "summary.json")) as f:
                 summary = json.load(f)
         final = summary["steps"][-1] if summary["steps"] else {}
         measured = {key: v for key, v in final.items() if key not in ("name", "increments")}
@@ -80,8 +45,8 @@ def run_sweep(scene_path, parameter, values, out_dir, comm=MPI.COMM_WORLD):
     return rows
 
 
-def _plot(rows, parameter, path):
-    from ..output.files import plot_curves
+def _plot(rows: list[dict[str, Any]], parameter: str, path: str) -> None:
+    """The numeric columns against the parameter (the "eye" ones only, if any)."""
     numeric = [c for c in rows[0] if c not in (parameter, "ok", "wall_s")
                and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
     if any(c.startswith("eye.") for c in numeric):

@@ -9,9 +9,9 @@ The numeric factorization is almost all of the cost of a Newton iteration
 the converged answer (the residual tolerances decide it, as before):
 
 * symmetric tangent -> MUMPS LDL^T (``pc_type cholesky``): half the flops of LU. Used when every
-  feature with hand-assembled terms declares ``symmetric_tangent = True`` and the assembled
-  matrix is symmetric to round-off, checked at the first Jacobian of every increment (a
-  follower pressure on a surface with free edges is not);
+  feature with hand-assembled terms declares ``symmetric_tangent = True``
+  (``Problem.symmetric_tangent``) and the assembled matrix is symmetric to round-off, checked at
+  the first Jacobian of every increment (a follower pressure on a surface with free edges is not);
 * factorization reuse (chord steps): after a Newton step that cut the residual by at least
   ``stepping.SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
   assembling and factorizing a new tangent; a reused step that contracts less ends the reuse.
@@ -36,17 +36,21 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
   below when its terms are far larger than its imbalance, and the solve has converged;
 * a Newton step that would invert an element (det F <= 0 at an element's midpoint, as
-  ``formulation.JacobianGuard`` watches) is halved before the line search, up to
+  ``mechanics.solid.JacobianGuard`` watches) is halved before the line search, up to
   ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
-  ``Feature.step_fraction``); one that still inverts ends the solve ("inverting step") with
+  ``ActiveSet.step_fraction``); one that still inverts ends the solve ("inverting step") with
   the element's location. A secant predictor that would invert an element is halved alike,
   or dropped.
 """
+from __future__ import annotations
+
 import contextlib
 
 import numpy as np
 from petsc4py import PETSc
 
+from ..contact.policy import NEWTON_OPTIONS
+from .problem import Problem
 from .stepping import SolverSettings
 
 PREFIX = "eye_"
@@ -61,7 +65,6 @@ DEFAULT_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
     "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
 }
-CONTACT_MAX_IT = 30  # snes_max_it when a feature limits steps (contact onset)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
 MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
@@ -75,18 +78,13 @@ _REASONS = {value: name for name, value in vars(PETSc.SNES.ConvergedReason).item
 class NewtonSolver:
     """SNES on a ``Problem``, solving one load increment at a time."""
 
-    def __init__(self, problem, prefix=PREFIX):
+    def __init__(self, problem: Problem, prefix: str = PREFIX):
         self.problem = problem
         opts = PETSc.Options()
         defaults = dict(DEFAULT_OPTIONS)
-        self.limits_steps = any(f.limits_steps for f in problem.features)
-        if self.limits_steps:
-            # the step limit at contact onset already shortens the Newton step; a backtracking
-            # line search would take a fraction of that again (a shortened Newton step decreases
-            # the residual less than its sufficient-decrease test asks), and crawl; and each onset
-            # costs an iteration, so an increment where many nodes close needs more of them
-            defaults["snes_linesearch_type"] = "basic"
-            defaults["snes_max_it"] = CONTACT_MAX_IT
+        self.limits_steps = problem.limits_steps
+        if self.limits_steps:  # contact's onset limit shortens the steps (``contact/policy.py``)
+            defaults.update(NEWTON_OPTIONS)
         self.prefix, self.defaults = prefix, defaults
         self.choose_factorization = not opts.hasName(prefix + "pc_type")  # else the user's
         self.divergence = PETSc.Options(prefix).getReal("snes_divergence_tolerance", 1e4)
@@ -130,7 +128,7 @@ class NewtonSolver:
         self.max_tangents = self.snes.getTolerances()[3]
         self.snes.setTolerances(max_it=self.max_tangents + _CHORD_STEPS)
 
-    def update_pattern(self):
+    def update_pattern(self) -> None:
         """Give the features their per-increment update; follow a new matrix if one was made."""
         if self.problem.update_pattern():
             self.snes.setJacobian(self._jacobian, self.problem.A)
@@ -144,12 +142,10 @@ class NewtonSolver:
         """Assemble a new tangent, or leave A untouched so that the KSP keeps its factorization
         (PCSetUp factorizes only a matrix whose state changed)."""
         norms = self.residual_norms
-        # a tangent whose active set (contact) changed is never reused; the list keeps the
-        # features' collective calls aligned across ranks
+        # a tangent whose active set (contact) changed is never reused
         first = snes.getIterationNumber() == 0
         self.reused = (first and self.chord_start) or (
-            not first and norms[-1] <= self.reuse_contraction * norms[-2]
-            and not any([f.tangent_outdated() for f in self.problem.features]))
+            not first and norms[-1] <= self.reuse_contraction * norms[-2] and not self.problem.tangent_outdated())
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
@@ -160,7 +156,7 @@ class NewtonSolver:
 
     def _limit_step(self, x, y):
         """Line-search precheck: shorten the Newton step x -> x - y where it would close a
-        contact gap too far (``Feature.step_fraction``) or invert an element
+        contact gap too far (``ActiveSet.step_fraction``) or invert an element
         (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
         however short is not taken: y is zeroed and the solve ends as "inverting step"."""
         fraction = 1.0
@@ -176,9 +172,9 @@ class NewtonSolver:
             y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
         return fraction < 1.0 or halvings != 0
 
-    def shorten_while_inverting(self, x, y):
+    def shorten_while_inverting(self, x: PETSc.Vec, y: PETSc.Vec) -> int | None:
         """Halve the step x -> x - y while it would invert an element (det F <= 0 at an element's
-        midpoint, ``formulation.JacobianGuard``), at most MAX_STEP_HALVINGS times; returns the
+        midpoint, ``mechanics.solid.JacobianGuard``), at most MAX_STEP_HALVINGS times; returns the
         number of halvings, or None if x - y still inverts (then ``Problem.inverted`` tells where
         the full step did). Leaves the solid at x (collective)."""
         full_step = self._inversion_at(x, y)
@@ -256,9 +252,8 @@ class NewtonSolver:
 
     def _symmetric(self, A):
         with _SYMMETRY_CHECK:
-            declared = all(getattr(f, "symmetric_tangent", not (f.adds_to_jacobian or f.num_unknowns))
-                           for f in self.problem.features)
-            return declared and A.isSymmetric(_SYMMETRY_TOLERANCE * A.norm(PETSc.NormType.INFINITY))
+            return self.problem.symmetric_tangent and A.isSymmetric(
+                _SYMMETRY_TOLERANCE * A.norm(PETSc.NormType.INFINITY))
 
     def _set_factorization(self, pc_type):
         pc = self.snes.getKSP().getPC()
@@ -267,7 +262,7 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x, chord_start=False):
+    def solve(self, x: PETSc.Vec, chord_start: bool = False) -> tuple[bool, int, float, str]:
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
         ``chord_start``: the first step reuses the last factorization (Newton again from a
         converged state whose loads changed a little: an augmentation)."""

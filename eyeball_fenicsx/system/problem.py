@@ -20,7 +20,18 @@ Newton judges one by one: the free displacement rows (forces), the prescribed on
 (x - g, lengths), the solid's pressure rows (the integral of J - 1 over an element, or of
 -p / mu in a compressible region: volumes), and one block per global unknown (a cavity's
 liquid law: a volume).
+
+The features are sorted once, when the problem is built, by the roles they play
+(``features/roles.py``), into lists in scene order; each callback loops over the lists it
+needs, in that order, so the terms are summed as the scene lists them. The nodal roles
+(``custom``: residual by global index; ``custom_tangents``: tangent by global index) cost what
+they need only when a scene holds them: without them the residual's Dirichlet rows are set in
+place as DOLFINx does, and the matrix may not grow beyond its preallocation.
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -28,27 +39,34 @@ from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, s
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..features.base import Feature
+from ..features.roles import (
+    ActiveSet,
+    Constraint,
+    FormTerm,
+    GlobalUnknowns,
+    NodalResidual,
+    NodalTangent,
+    StateDependent,
+)
 from ..mechanics.solid import JacobianGuard, MixedSolid
 
 
 class Problem:
     """Residual and Jacobian of the solid and its features, as SNES callbacks."""
 
-    def __init__(self, solid: MixedSolid, features):
+    def __init__(self, solid: MixedSolid, features: Sequence[Feature]):
         self.solid = solid
         self.features = list(features)
         self.comm = comm = solid.comm
         for f in self.features:
             f.setup(solid)
+        self._sort_by_role()
         residual = ufl.derivative(solid.potential(), solid.w, ufl.TestFunction(solid.W))
-        for f in self.features:
-            extra = f.residual(solid)
-            if extra is not None:
-                residual = residual + extra
+        for f in self.form_terms:
+            residual = residual + f.residual(solid)
         self.R_form = fem.form(residual)
         self.J_form = fem.form(ufl.derivative(residual, solid.w, ufl.TrialFunction(solid.W)))
-        self.bordered = [f for f in self.features if f.num_unknowns]
-        self.custom = [f for f in self.features if f.adds_to_residual]
         self.m = sum(f.num_unknowns for f in self.bordered)
 
         index_map = solid.W.dofmap.index_map
@@ -70,6 +88,30 @@ class Problem:
         self.bcs = []
         self.inverted = None
         self._displacement_rows, self._pressure_rows = (self._owned_rows(solid.W.sub(i)) for i in range(2))
+
+    def _sort_by_role(self):
+        """The features of each role (``features/roles.py``), in scene order: the one place that
+        asks what a feature is (after ``setup``, which may create what a role needs)."""
+        def playing(role):
+            return [f for f in self.features if isinstance(f, role)]
+        self.form_terms = playing(FormTerm)
+        self.constraints = playing(Constraint)  # the features that impose Dirichlet conditions
+        self.custom = playing(NodalResidual)
+        self.custom_tangents = playing(NodalTangent)
+        self.bordered = playing(GlobalUnknowns)
+        self.state_dependent = playing(StateDependent)
+        self.active_sets = playing(ActiveSet)
+
+    @property
+    def limits_steps(self) -> bool:
+        """Whether a feature may shorten Newton's steps (``ActiveSet.step_fraction``)."""
+        return bool(self.active_sets)
+
+    @property
+    def symmetric_tangent(self) -> bool:
+        """Whether every hand-assembled part of the tangent is declared symmetric (the UFL part
+        is checked numerically by the solver)."""
+        return all(f.symmetric_tangent for f in self.custom_tangents + self.bordered)
 
     def _owned_rows(self, subspace):
         """Owned local indices in W (block size 1) of a subspace's dofs (collective: collapses it)."""
@@ -99,13 +141,13 @@ class Problem:
         size = (n + self.n_extra_local, self.n_global + m)
         A = PETSc.Mat().createAIJ((size, size), nnz=(d_nnz, o_nnz), comm=comm)
         A.setLGMap(self.lgmap, self.lgmap)
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, not self.custom_jacobian)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, not self.custom_tangents)
         A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         return A
 
     def _coupling(self):
-        """Distinct extra (row, col) entries of the custom features, on the rows' owners."""
-        pairs = [f.coupling() for f in self.features if f.adds_to_jacobian]
+        """Distinct extra (row, col) entries of the custom tangents, on the rows' owners."""
+        pairs = [f.coupling() for f in self.custom_tangents]
         pairs = [np.column_stack(p).astype(np.int64) for p in pairs if p is not None]
         pairs = np.concatenate(pairs) if pairs else np.empty((0, 2), dtype=np.int64)
         ranges = np.array(self.comm.allgather(self.offset) + [self.n_global])
@@ -116,25 +158,26 @@ class Problem:
         mine = np.unique(mine, axis=0) if len(mine) else mine.reshape(0, 2)
         return mine[:, 0], mine[:, 1]
 
-    def update_pattern(self):
-        """Start of an increment: let features search; re-preallocate if their coupling changed.
-        Returns True if the matrix was created anew."""
-        changed = [f.begin_increment() for f in self.features]
+    def update_pattern(self) -> bool:
+        """Start of an increment: let the active sets search; re-preallocate if their coupling
+        changed. Returns True if the matrix was created anew (collective)."""
+        changed = [f.begin_increment() for f in self.active_sets]
         if not self.comm.allreduce(any(changed), op=MPI.LOR):
             return False
         self.A.destroy()
         self.A = self._create_matrix()
         return True
 
-    @property
-    def custom_jacobian(self):
-        return any(f.adds_to_jacobian for f in self.features)
+    def tangent_outdated(self) -> bool:
+        """Collective: an active set changed since the last tangent (its factorization then is
+        no Newton step); every feature is asked, so that their collectives stay aligned."""
+        return any([f.tangent_outdated() for f in self.active_sets])
 
     # -- steps ---------------------------------------------------------------------------
-    def begin_step(self, step_index):
+    def begin_step(self, step_index: int) -> None:
         for f in self.features:
             f.begin_step(step_index)
-        self.bcs = [bc for f in self.features for bc in f.dirichlet_bcs()]
+        self.bcs = [bc for f in self.constraints for bc in f.dirichlet_bcs()]
         rows = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in self.bcs]
         self.bc_rows = np.unique(np.concatenate(rows)) if rows else np.empty(0, dtype=np.int32)
         self.residual_blocks = self._residual_blocks()
@@ -153,22 +196,22 @@ class Problem:
                 index += 1
         return blocks
 
-    def set_load_factor(self, factors):
+    def set_load_factor(self, factors: Sequence[float]) -> None:
         """factors: one ramp value per feature, in the order of ``self.features``."""
         for f, factor in zip(self.features, factors):
             f.set_load_factor(factor)
 
     # -- state transfer ------------------------------------------------------------------
-    def state_to_vector(self, x):
+    def state_to_vector(self, x: PETSc.Vec) -> None:
         # x and b have no ghosts: their .array is the owned part
         x.array[: self.n_owned] = self.solid.w.x.array[: self.n_owned]
         x.array[self.n_owned:] = self.global_values()
 
-    def global_values(self):
+    def global_values(self) -> np.ndarray:
         values = np.concatenate([f.unknowns for f in self.bordered]) if self.bordered else np.empty(0)
         return values if self.comm.rank == self.last else np.empty(0)
 
-    def vector_to_state(self, x):
+    def vector_to_state(self, x: PETSc.Vec) -> None:
         w = self.solid.w
         w.x.array[: self.n_owned] = x.array_r[: self.n_owned]
         w.x.scatter_forward()
@@ -179,26 +222,26 @@ class Problem:
             for f in self.bordered:
                 f.unknowns = values[start: start + f.num_unknowns]
                 start += f.num_unknowns
-        for f in self.features:
+        for f in self.state_dependent:
             f.state_changed()
 
-    def step_fraction(self, du, residual):
-        """The largest fraction (at most 1) of the state change du that every feature allows in
-        one step, given the residual at the current state (local arrays of bordered vectors;
+    def step_fraction(self, du: np.ndarray, residual: np.ndarray) -> float:
+        """The largest fraction (at most 1) of the state change du that every active set allows
+        in one step, given the residual at the current state (local arrays of bordered vectors;
         collective)."""
-        return min([f.step_fraction(du[: self.n_owned], residual[: self.n_owned]) for f in self.features],
+        return min([f.step_fraction(du[: self.n_owned], residual[: self.n_owned]) for f in self.active_sets],
                    default=1.0)
 
-    def set_increment(self, final):
-        for f in self.features:
+    def set_increment(self, final: bool) -> None:
+        for f in self.active_sets:
             f.set_increment(final)
 
-    def augment(self):
-        """After Newton converged: True if no feature needs another solve (collective)."""
-        return all([f.augment() for f in self.features])
+    def augment(self) -> bool:
+        """After Newton converged: True if no active set needs another solve (collective)."""
+        return all([f.augment() for f in self.active_sets])
 
     # -- SNES callbacks ------------------------------------------------------------------
-    def assemble_residual_unconstrained(self):
+    def assemble_residual_unconstrained(self) -> PETSc.Vec:
         """The residual vector of the UFL forms, ghosts accumulated, no BC treatment."""
         with self.b_w.localForm() as bl:
             bl.set(0.0)
@@ -213,7 +256,7 @@ class Problem:
             self.b_w.array[: self.n_owned] = b.array_r[: self.n_owned]
         return self.b_w
 
-    def F(self, snes, x, b):
+    def F(self, snes: PETSc.SNES | None, x: PETSc.Vec, b: PETSc.Vec) -> None:
         self.vector_to_state(x)
         det_min, where = self.guard.check()
         if not det_min > 0:
@@ -247,21 +290,20 @@ class Problem:
             return np.empty(0)
         return np.concatenate(values)
 
-    def J(self, snes, x, A, P):
+    def J(self, snes: PETSc.SNES | None, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         A.zeroEntries()
         assemble_matrix(A, self.J_form, self.bcs, diagonal=1.0)
-        if self.bordered or self.custom_jacobian:
+        if self.bordered or self.custom_tangents:
             A.assemble(PETSc.Mat.AssemblyType.FLUSH)  # the BC diagonal was inserted, the rest adds
         index = self.n_global
         for f in self.bordered:
             for dofs, column, row, diagonal in f.border():
                 self._set_border(A, index, dofs, column, row, diagonal)
                 index += 1
-        for f in self.features:
-            if f.adds_to_jacobian:
-                f.add_to_jacobian(A)
+        for f in self.custom_tangents:
+            f.add_to_jacobian(A)
         A.assemble()
-        if self.custom_jacobian:
+        if self.custom_tangents:
             A.zeroRows(self.lgmap.apply(self.bc_rows), diag=1.0)
 
     def _set_border(self, A, index, dofs, column, row, diagonal):

@@ -12,13 +12,22 @@
   which scales by the square root of that ratio and relaxes toward its largest step).
 * A failed increment is halved, at most ``max_cutbacks`` times; then the run ends with a
   ``ConvergenceError`` that keeps the converged increments.
+
+Data path: ``run_step`` sets the features' load factors on the problem (system/problem.py),
+predicts, calls Newton (system/newton.py) per increment and returns the converged increments to
+the scene, whose observers then read the state. Each increment's line is logged at INFO on this
+module's logger (``logging.getLogger(__name__)``; output/console.py prints it on rank 0).
 """
 import dataclasses
+import logging
 import time
 
 import numpy as np
 
+from .. import checks
 from ..errors import ConvergenceError, SceneError
+
+log = logging.getLogger(__name__)
 
 
 @dataclasses.dataclass
@@ -46,21 +55,20 @@ class SolverSettings:
     predictor: bool = True
     reuse_contraction: float = 0.1
 
-    def __post_init__(self):
-        if isinstance(self.increments, bool) or not isinstance(self.increments, int) or self.increments < 1:
-            raise SceneError(f"solver.increments must be a positive integer, got {self.increments!r}")
-        if not self.growth >= 1:
+    def __post_init__(self) -> None:
+        checks.integer(self.increments, "solver.increments")
+        if checks.number(self.growth, "solver.growth") < 1:
             raise SceneError(f"solver.growth must be at least 1 (1: equal increments), got {self.growth!r}")
 
 
-def ramp(feature_step, step_index, t):
+def ramp(feature_step: int, step_index: int, t: float) -> float:
     """Load factor of a feature that ramps in ``feature_step`` at time t of ``step_index``."""
     if step_index < feature_step:
         return 0.0
     return t if step_index == feature_step else 1.0
 
 
-def next_increment_factor(tangents, settings):
+def next_increment_factor(tangents: int, settings: SolverSettings) -> float:
     """The step-size rule: easy_iterations / tangents, within [1 / growth, growth]."""
     return float(np.clip(settings.easy_iterations / max(tangents, 1), 1 / settings.growth, settings.growth))
 
@@ -74,7 +82,8 @@ class Increment:
     factorizations: int  # new tangents factorized; the other iterations reused one
 
 
-def run_step(problem, newton, settings, step_index, step_name, increments, log):
+def run_step(problem, newton, settings: SolverSettings, step_index: int, step_name: str,
+             increments: int) -> list[Increment]:
     """Advance one step of the load path from t = 0 to 1 with adaptive increments.
 
     Returns the list of converged ``Increment``; raises ``ConvergenceError`` (with the
@@ -92,48 +101,74 @@ def run_step(problem, newton, settings, step_index, step_name, increments, log):
         dt = min(dt, 1.0 - t)
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
-        if use_predictor and x_prev is not None:  # extrapolated, but not through a contact nor an inversion
-            step = x_prev - x_old  # the secant, as the step x_old -> x_old - step
-            step.scale(dt / dt_prev)
-            if newton.limits_steps:
-                problem.F(None, x_old, problem.b)
-                step.scale(problem.step_fraction(-step.array_r, problem.b.array_r))
-            if newton.shorten_while_inverting(x_old, step) is not None:
-                x.axpy(-1.0, step)
-        start, factorized = time.perf_counter(), newton.factorizations
-        newton.update_pattern()
-        problem.set_increment(t + dt >= 1.0 - 1e-12)
-        converged, its, norm, reason = newton.solve(x)
-        while converged and not problem.augment():  # augmented Lagrangian: Newton again
-            converged, more, norm, reason = newton.solve(x, chord_start=True)
-            its += more
-        wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
+        if use_predictor and x_prev is not None:
+            _predict(problem, newton, x, x_old, x_prev, dt / dt_prev)
+        converged, increment, reason = _solve_increment(problem, newton, x, t + dt)
         if converged:
-            t += dt
-            done.append(Increment(t, its, norm, wall, factorized))
-            log(f"step {step_name}: load factor {t:.4f}  Newton iterations {its:2d} ({factorized} factorized)  "
-                f"residual {norm:.2e}  {wall:.2f} s")
+            t = increment.load_factor
+            done.append(increment)
+            log.info("step %s: load factor %.4f  Newton iterations %2d (%d factorized)  residual %.2e  %.2f s",
+                     step_name, t, increment.newton_iterations, increment.factorizations, increment.residual_norm,
+                     increment.wall_s)
             if x_prev is None:
                 x_prev = x.duplicate()
             x_old.copy(x_prev)
             dt_prev = dt
             use_predictor = settings.predictor
-            dt = max(dt * next_increment_factor(factorized, settings), smallest)
+            dt = max(dt * next_increment_factor(increment.factorizations, settings), smallest)
             continue
-        x_old.copy(x)
-        problem.vector_to_state(x)
-        where = ""
-        if problem.inverted is not None:
-            where = f"; an element inverted (det F = {problem.inverted[0]:.3g}) near {np.round(problem.inverted[1], 4).tolist()}"
-        log(f"step {step_name}: load factor {t + dt:.4f} failed ({reason}{where}); cutting the increment back")
-        if dt <= smallest * (1 + 1e-9):
-            error = ConvergenceError(
-                f"step {step_name!r} did not converge beyond load factor {t:.4g}, even with the increment "
-                f"cut back {settings.max_cutbacks} times (last try: {reason}{where}); use more increments, check the loads and supports, or "
-                f"pass -{newton.prefix}snes_monitor to see the Newton iterations")
-            error.increments = done
-            raise error
+        _restore_or_give_up(problem, newton, settings, x, x_old, (step_name, t, dt, reason), smallest, done)
         dt /= 2
         use_predictor = False
     problem.set_load_factor([ramp(f.step, step_index, 1.0) for f in problem.features])
     return done
+
+
+def _predict(problem, newton, x, x_old, x_prev, scale: float) -> None:
+    """Secant predictor: x = x_old + scale (x_old - x_prev), the step shortened where it would
+    close a contact gap too far (``step_fraction``) and dropped where it would still invert an
+    element."""
+    step = x_prev - x_old  # the secant, as the step x_old -> x_old - step
+    step.scale(scale)
+    if newton.limits_steps:
+        problem.F(None, x_old, problem.b)
+        step.scale(problem.step_fraction(-step.array_r, problem.b.array_r))
+    if newton.shorten_while_inverting(x_old, step) is not None:
+        x.axpy(-1.0, step)
+
+
+def _solve_increment(problem, newton, x, load_factor: float) -> tuple[bool, Increment, str]:
+    """Newton on the increment ending at ``load_factor``, then again while a feature augments
+    (the augmented Lagrangian of contact), from the last factorization. Returns (converged,
+    the increment's ``Increment``, Newton's reason)."""
+    start, factorized = time.perf_counter(), newton.factorizations
+    newton.update_pattern()
+    problem.set_increment(load_factor >= 1.0 - 1e-12)
+    converged, its, norm, reason = newton.solve(x)
+    while converged and not problem.augment():
+        converged, more, norm, reason = newton.solve(x, chord_start=True)
+        its += more
+    wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
+    return converged, Increment(load_factor, its, norm, wall, factorized), reason
+
+
+def _restore_or_give_up(problem, newton, settings: SolverSettings, x, x_old, failure: tuple, smallest: float,
+                        done: list[Increment]) -> None:
+    """After a failed increment: back to the last converged state x_old, and a
+    ``ConvergenceError`` if the increment was already the smallest (``failure``: the step's
+    name, its converged load factor t, the increment dt and Newton's reason)."""
+    step_name, t, dt, reason = failure
+    x_old.copy(x)
+    problem.vector_to_state(x)
+    where = ""
+    if problem.inverted is not None:
+        where = (f"; an element inverted (det F = {problem.inverted[0]:.3g}) near "
+                 f"{np.round(problem.inverted[1], 4).tolist()}")
+    log.info("step %s: load factor %.4f failed (%s%s); cutting the increment back", step_name, t + dt, reason, where)
+    if dt <= smallest * (1 + 1e-9):
+        error = ConvergenceError(
+            f"step {step_name!r} did not converge beyond load factor {t:.4g}, even with the increment "
+            f"cut back {settings.max_cutbacks} times (last try: {reason}{where}); use more increments, check the "
+            f"loads and supports, or pass -{newton.prefix}snes_monitor to see the Newton iterations")
+        error.increments = done
+        raise error

@@ -5,16 +5,17 @@ test band tightening. Nodes are placed in cylindrical coordinates; a full ring (
 360``) is periodic, a sector 0 <= theta <= sector has the cut faces "cut_0" (theta = 0) and
 "cut_1" (theta = sector).
 
-Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.band --out band.msh --inner-radius 12 --thickness 0.6 --width 2.5``
+Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.band --out band.msh --inner-radius 12 --thickness 0.6
+--width 2.5``
 """
-import argparse
-
 import numpy as np
 
-from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli
+from .hexes import add_hex_model, boundary_quads, builder_main, check, hex_grid
 
 
-def band_geometry(inner_radius, thickness, width, z_center=0.0, n_circ=64, n_thick=2, n_width=4, sector=360.0):
+def band_geometry(inner_radius: float, thickness: float, width: float, z_center: float = 0.0, n_circ: int = 64,
+                  n_thick: int = 2, n_width: int = 4,
+                  sector: float = 360.0) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """Nodes, hexahedra and named boundary quadrilaterals of the band (see module docstring).
 
     Returns:
@@ -45,28 +46,17 @@ def band_geometry(inner_radius, thickness, width, z_center=0.0, n_circ=64, n_thi
     return nodes, hexes.reshape(-1, 8), surfaces
 
 
-def build_band(inner_radius=12.0, thickness=0.6, width=2.5, z_center=0.0, n_circ=64, n_thick=2, n_width=4,
-               sector=360.0, region="band"):
+def build_band(inner_radius: float = 12.0, thickness: float = 0.6, width: float = 2.5, z_center: float = 0.0,
+               n_circ: int = 64, n_thick: int = 2, n_width: int = 4, sector: float = 360.0,
+               region: str = "band") -> None:
     """Add the gmsh model "band" (volume group ``region``; surfaces ``<region>_inner``,
     ``_outer``, ``_back``, ``_front`` and, for a sector, ``_cut_0``, ``_cut_1``)."""
     nodes, hexes, surfaces = band_geometry(inner_radius, thickness, width, z_center, n_circ, n_thick, n_width, sector)
     add_hex_model("band", nodes, hexes, region, {f"{region}_{name}": quads for name, quads in surfaces.items()})
 
 
-def main(argv=None):
-    """Command-line entry point: write a band mesh."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True)
-    parser.add_argument("--inner-radius", dest="inner_radius", type=float, default=12.0)
-    parser.add_argument("--thickness", type=float, default=0.6)
-    parser.add_argument("--width", type=float, default=2.5)
-    parser.add_argument("--z-center", dest="z_center", type=float, default=0.0)
-    parser.add_argument("--n-circ", dest="n_circ", type=int, default=64)
-    parser.add_argument("--n-thick", dest="n_thick", type=int, default=2)
-    parser.add_argument("--n-width", dest="n_width", type=int, default=4)
-    parser.add_argument("--sector", type=float, default=360.0)
-    parser.add_argument("--region", default="band")
-    run_cli(parser, build_band, argv)
+main = builder_main(build_band, "eyeball_fenicsx.meshing.builders.band", __doc__, region="band", inner_radius=12.0,
+                    thickness=0.6, width=2.5, z_center=0.0, n_circ=64, n_thick=2, n_width=4, sector=360.0)
 
 
 if __name__ == "__main__":

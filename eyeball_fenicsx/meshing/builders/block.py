@@ -2,19 +2,19 @@
 
 Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.block --out block.msh --lengths 1 1 1 --divisions 4 4 4``
 """
-import argparse
+from collections.abc import Sequence
 
 import numpy as np
 
-from eyeball_fenicsx.errors import SceneError
-
-from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+from ...errors import SceneError
+from .hexes import add_block_model, builder_main, check, hex_grid, msh_writer
 
 # Surface physical groups by the side of the box they cover: "x0" is the face x = 0, etc.
 _SIDES = {"x0": "u-", "x1": "u+", "y0": "v-", "y1": "v+", "z0": "w-", "z1": "w+"}
 
 
-def build_block(lengths=(1.0, 1.0, 1.0), divisions=(4, 4, 4), region="solid"):
+def build_block(lengths: Sequence[float] = (1.0, 1.0, 1.0), divisions: Sequence[int] = (4, 4, 4),
+                region: str = "solid") -> None:
     """Add the gmsh model "block": the box meshed with uniform 8-node hexahedra.
 
     Call on the rank that owns gmsh, with gmsh initialized. Physical groups: the volume
@@ -36,28 +36,13 @@ def build_block(lengths=(1.0, 1.0, 1.0), divisions=(4, 4, 4), region="solid"):
     axes = [np.linspace(0.0, length, n + 1) for length, n in zip(lengths, divisions)]
     nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     hexes = hex_grid(np.arange(len(nodes)).reshape([n + 1 for n in divisions]))
-    surfaces = {name: boundary_quads(hexes, side) for name, side in _SIDES.items()}
-    add_hex_model("block", nodes, hexes.reshape(-1, 8), region, surfaces)
+    add_block_model("block", nodes, hexes, region, _SIDES)
 
 
-def write(path, **options):
-    """Write the block as an MSH 4.1 file in a private gmsh session (serial).
-
-    Args:
-        path: the .msh file to write.
-        **options: keyword arguments of :func:`build_block`.
-    """
-    write_msh(path, build_block, **options)
-
-
-def main(argv=None):
-    """Command-line entry point: write a block mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.block", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, help="the .msh file to write")
-    parser.add_argument("--lengths", type=float, nargs=3, default=(1.0, 1.0, 1.0), metavar=("LX", "LY", "LZ"))
-    parser.add_argument("--divisions", type=int, nargs=3, default=(4, 4, 4), metavar=("NX", "NY", "NZ"))
-    parser.add_argument("--region", default="solid", help="name of the volume physical group")
-    run_cli(parser, build_block, argv)
+write = msh_writer(build_block)
+main = builder_main(build_block, "eyeball_fenicsx.meshing.builders.block", __doc__, region="solid",
+                    lengths=dict(type=float, nargs=3, default=(1.0, 1.0, 1.0), metavar=("LX", "LY", "LZ")),
+                    divisions=dict(type=int, nargs=3, default=(4, 4, 4), metavar=("NX", "NY", "NZ")))
 
 
 if __name__ == "__main__":

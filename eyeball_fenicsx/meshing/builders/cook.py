@@ -7,13 +7,12 @@ edge y = 44 x / 48 and the upper edge y = 44 + 16 x / 48, so every element is a 
 
 Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.cook --out cook.msh --divisions 16 16 1``
 """
-import argparse
+from collections.abc import Sequence
 
 import numpy as np
 
-from eyeball_fenicsx.errors import SceneError
-
-from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+from ...errors import SceneError
+from .hexes import add_block_model, builder_main, check, hex_grid, msh_writer
 
 # Surface physical groups by the side of the panel they cover.
 _SIDES = {"clamped": "u-", "loaded": "u+", "bottom": "v-", "top": "v+", "z0": "w-", "z1": "w+"}
@@ -21,7 +20,7 @@ LENGTH, LEFT_HEIGHT, RIGHT_BOTTOM, RIGHT_TOP = 48.0, 44.0, 44.0, 60.0
 TIP = (LENGTH, RIGHT_TOP)  # the upper corner of the loaded edge, where the deflection is measured
 
 
-def build_cook(divisions=(16, 16, 1), thickness=1.0, region="solid"):
+def build_cook(divisions: Sequence[int] = (16, 16, 1), thickness: float = 1.0, region: str = "solid") -> None:
     """Add the gmsh model "cook": Cook's panel in nx x ny x nz 8-node hexahedra.
 
     Call on the rank that owns gmsh, with gmsh initialized. Physical groups: the volume
@@ -49,28 +48,13 @@ def build_cook(divisions=(16, 16, 1), thickness=1.0, region="solid"):
     upper = LEFT_HEIGHT + (RIGHT_TOP - LEFT_HEIGHT) * s
     nodes = np.stack([LENGTH * s, lower + (upper - lower) * t, thickness * w], axis=-1).reshape(-1, 3)
     hexes = hex_grid(np.arange(len(nodes)).reshape(nx + 1, ny + 1, nz + 1))
-    surfaces = {name: boundary_quads(hexes, side) for name, side in _SIDES.items()}
-    add_hex_model("cook", nodes, hexes.reshape(-1, 8), region, surfaces)
+    add_block_model("cook", nodes, hexes, region, _SIDES)
 
 
-def write(path, **options):
-    """Write Cook's panel as an MSH 4.1 file in a private gmsh session (serial).
-
-    Args:
-        path: the .msh file to write.
-        **options: keyword arguments of :func:`build_cook`.
-    """
-    write_msh(path, build_cook, **options)
-
-
-def main(argv=None):
-    """Command-line entry point: write a Cook's membrane mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.cook", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, help="the .msh file to write")
-    parser.add_argument("--divisions", type=int, nargs=3, default=(16, 16, 1), metavar=("NX", "NY", "NZ"))
-    parser.add_argument("--thickness", type=float, default=1.0)
-    parser.add_argument("--region", default="solid", help="name of the volume physical group")
-    run_cli(parser, build_cook, argv)
+write = msh_writer(build_cook)
+main = builder_main(build_cook, "eyeball_fenicsx.meshing.builders.cook", __doc__, region="solid",
+                    divisions=dict(type=int, nargs=3, default=(16, 16, 1), metavar=("NX", "NY", "NZ")),
+                    thickness=1.0)
 
 
 if __name__ == "__main__":

@@ -4,19 +4,36 @@ Node and element numbering follow gmsh: an 8-node hexahedron (element type 5) li
 (w = -1) counter-clockwise seen from +w, then the top face (w = +1) in the same order, so a hexahedron
 whose (u, v, w) directions form a right-handed frame has a positive Jacobian. Boundary faces are
 4-node quadrilaterals (element type 3) ordered counter-clockwise seen from outside the hexahedron.
+
+Measures of the elements: corner Jacobians (the mesh quality), and by Gauss-Legendre quadrature with
+2 points per direction the areas of bilinear quadrilaterals, the volume that a closed surface of
+element faces encloses (the divergence theorem: -(1/3) of the integral of x . n, n the faces' normal,
+out of their hexahedra and so into the enclosed cavity; negative for the outer boundary of a mesh)
+and the volumes of trilinear hexahedra. The two volumes are exact, their integrands being
+polynomials of degree at most 2 in each reference coordinate.
+
+Each builder is also a command, ``python3 -m eyeball_fenicsx.meshing.builders.<name> --out <file>.msh
+[options]`` (:func:`builder_main`), and has a ``write(path, **options)`` (:func:`msh_writer`).
 """
 import argparse
 import math
 import numbers
+import os
+from collections.abc import Callable, Sequence
 
 import gmsh
 import numpy as np
 from mpi4py import MPI
 
-from eyeball_fenicsx.errors import SceneError
+from ...checks import is_number
+from ...errors import SceneError
 
 HEXAHEDRON = 5
 QUADRANGLE = 3
+
+# Reference positions (a, b, c) in {0, 1}^3 along (u, v, w) of the corners of the gmsh hexahedron, in its order.
+_CORNERS = ((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1))
+_CORNER = {position: corner for corner, position in enumerate(_CORNERS)}
 
 # Local nodes of each hexahedron face, counter-clockwise seen from outside, by outward direction.
 HEX_FACES = {
@@ -26,7 +43,7 @@ HEX_FACES = {
 }
 
 
-def check(builder, name, value, kind):
+def check(builder: str, name: str, value, kind: str) -> None:
     """Raise SceneError unless a builder parameter is a positive integer or a positive finite number.
 
     Args:
@@ -35,12 +52,12 @@ def check(builder, name, value, kind):
         value: the parameter.
         kind: ``"positive integer"`` or ``"positive number"``.
     """
-    valid = isinstance(value, numbers.Integral if kind == "positive integer" else numbers.Real)
-    if isinstance(value, bool) or not valid or not math.isfinite(value) or value <= 0:
+    valid = is_number(value) and (kind != "positive integer" or isinstance(value, numbers.Integral))
+    if not valid or value <= 0:
         raise SceneError(f"{builder}: {name} must be a {kind}, got {value!r}")
 
 
-def hex_grid(ids):
+def hex_grid(ids: np.ndarray) -> np.ndarray:
     """Hexahedra of a structured block of nodes.
 
     Args:
@@ -49,12 +66,11 @@ def hex_grid(ids):
     Returns:
         Node indices of the hexahedra in gmsh order, shape ``(nu, nv, nw, 8)``.
     """
-    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
     nu, nv, nw = (size - 1 for size in ids.shape)
-    return np.stack([ids[a:a + nu, b:b + nv, c:c + nw] for a, b, c in corners], axis=-1)
+    return np.stack([ids[a:a + nu, b:b + nv, c:c + nw] for a, b, c in _CORNERS], axis=-1)
 
 
-def boundary_quads(hexes, side):
+def boundary_quads(hexes: np.ndarray, side: str) -> np.ndarray:
     """Outward-oriented quadrilaterals on one side of a structured block of hexahedra.
 
     Args:
@@ -69,7 +85,24 @@ def boundary_quads(hexes, side):
     return layer[..., HEX_FACES[side]].reshape(-1, 4)
 
 
-def add_hex_model(name, nodes, hexes, region, surfaces, regions=None):
+def faces(hexes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All hexahedron faces, outward and counter-clockwise: ``(quads, face_id)`` with
+    quads shape ``(6 num_hexes, 4)``, row 6 h + f the face f of hexahedron h, and face_id the
+    same number for the two sides of an interior face."""
+    quads = hexes[:, list(HEX_FACES.values())].reshape(-1, 4)
+    _, face_id = np.unique(np.sort(quads, axis=1), axis=0, return_inverse=True)
+    return quads, face_id.ravel()
+
+
+def open_edges(quads: np.ndarray) -> np.ndarray:
+    """Edges (node pairs) used by one quadrilateral of ``quads`` only."""
+    edges = np.sort(np.concatenate([quads[:, [k, (k + 1) % 4]] for k in range(4)]), axis=1)
+    unique_edges, counts = np.unique(edges, axis=0, return_counts=True)
+    return unique_edges[counts == 1]
+
+
+def add_hex_model(name: str, nodes: np.ndarray, hexes: np.ndarray | None, region: str | None,
+                  surfaces: dict[str, np.ndarray], regions: dict[str, np.ndarray] | None = None) -> None:
     """Add a gmsh model made of discrete volumes of hexahedra and named discrete boundary surfaces.
 
     One region: the volume physical group gets tag 1 and the surface physical groups tags 2, 3, ...
@@ -116,12 +149,21 @@ def add_hex_model(name, nodes, hexes, region, surfaces, regions=None):
     gmsh.model.mesh.reclassifyNodes()
 
 
-# Corners of the gmsh hexahedron by reference position (a, b, c) in {0, 1}^3 along (u, v, w).
-_CORNER = {(0, 0, 0): 0, (1, 0, 0): 1, (1, 1, 0): 2, (0, 1, 0): 3,
-           (0, 0, 1): 4, (1, 0, 1): 5, (1, 1, 1): 6, (0, 1, 1): 7}
+def add_block_model(name: str, nodes: np.ndarray, hexes: np.ndarray, region: str, sides: dict[str, str]) -> None:
+    """Add a gmsh model of one structured block (:func:`add_hex_model`), its surfaces named by side.
+
+    Args:
+        name: name of the gmsh model.
+        nodes: node coordinates, shape ``(num_nodes, 3)``.
+        hexes: hexahedra from :func:`hex_grid`, shape ``(nu, nv, nw, 8)``.
+        region: name of the volume physical group.
+        sides: surface physical-group name -> the side of the block it covers (:func:`boundary_quads`).
+    """
+    surfaces = {surface: boundary_quads(hexes, side) for surface, side in sides.items()}
+    add_hex_model(name, nodes, hexes.reshape(-1, 8), region, surfaces)
 
 
-def corner_jacobians(nodes, hexes):
+def corner_jacobians(nodes: np.ndarray, hexes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Corner Jacobians of trilinear hexahedra: det(J) and the scaled Jacobian at each of the 8 corners.
 
     At a corner the columns of J are the three edges along u, v and w, so the scaled Jacobian
@@ -146,7 +188,48 @@ def corner_jacobians(nodes, hexes):
     return det, scaled
 
 
-def write_msh(path, build, **options):
+_GAUSS = (0.5 - 0.5 / math.sqrt(3), 0.5 + 0.5 / math.sqrt(3))
+
+
+def _bilinear(nodes, quads):
+    """Yield (weight, point, x_u x x_v) at the 2 x 2 Gauss points of bilinear quadrilaterals."""
+    x = nodes[quads]  # corners 0, 1, 2, 3 at (u, v) = (0, 0), (1, 0), (1, 1), (0, 1)
+    for u in _GAUSS:
+        for v in _GAUSS:
+            point = x[:, 0] * (1 - u) * (1 - v) + x[:, 1] * u * (1 - v) + x[:, 2] * u * v + x[:, 3] * (1 - u) * v
+            du = (x[:, 1] - x[:, 0]) * (1 - v) + (x[:, 2] - x[:, 3]) * v
+            dv = (x[:, 3] - x[:, 0]) * (1 - u) + (x[:, 2] - x[:, 1]) * u
+            yield 0.25, point, np.cross(du, dv)
+
+
+def quad_areas(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Areas of bilinear quadrilaterals."""
+    return sum(w * np.linalg.norm(normal, axis=1) for w, _, normal in _bilinear(nodes, quads))
+
+
+def enclosed_volume(nodes: np.ndarray, quads: np.ndarray) -> float:
+    """-(1/3) integral of x . n over bilinear quadrilaterals, n their outward normal (2 x 2 Gauss: exact)."""
+    return -sum(w * np.sum(point * normal) for w, point, normal in _bilinear(nodes, quads)) / 3
+
+
+def hex_volumes(nodes: np.ndarray, hexes: np.ndarray) -> np.ndarray:
+    """Volumes of trilinear hexahedra (gmsh order), exact (2 x 2 x 2 Gauss points)."""
+    x = nodes[hexes]
+    volume = np.zeros(len(hexes))
+    for u in _GAUSS:
+        for v in _GAUSS:
+            for w in _GAUSS:
+                jacobian = np.zeros((len(hexes), 3, 3))
+                for k, (a, b, c) in enumerate(_CORNERS):
+                    weights = ((u if a else 1 - u), (v if b else 1 - v), (w if c else 1 - w))
+                    gradient = ((1 if a else -1) * weights[1] * weights[2], (1 if b else -1) * weights[0] * weights[2],
+                                (1 if c else -1) * weights[0] * weights[1])
+                    jacobian += x[:, k, :, None] * np.array(gradient)[None, None, :]
+                volume += np.linalg.det(jacobian) / 8
+    return volume
+
+
+def write_msh(path: str | os.PathLike, build: Callable, **options) -> None:
     """Build a model in a private gmsh session and write it as an MSH 4.1 file (serial).
 
     Args:
@@ -164,7 +247,48 @@ def write_msh(path, build, **options):
         gmsh.finalize()
 
 
-def run_cli(parser: argparse.ArgumentParser, build, argv=None):
+def msh_writer(build: Callable) -> Callable[..., None]:
+    """The ``write(path, **options)`` function of a builder: :func:`write_msh` of ``build``."""
+    def write(path: str | os.PathLike, **options) -> None:
+        write_msh(path, build, **options)
+
+    write.__doc__ = (f"Write the model of ``{build.__name__}`` (its keyword arguments ``options``) to the MSH 4.1 "
+                     "file ``path``, in a private gmsh session (serial).")
+    return write
+
+
+def builder_main(build: Callable, module: str, doc: str, region: str | None = None,
+                 **options: dict | float) -> Callable[[Sequence[str] | None], None]:
+    """The command-line entry point of a builder: ``python3 -m <module> --out <file>.msh [options]``.
+
+    Args:
+        build: the function that adds the model to gmsh, called with the options.
+        module: the builder's module, for the usage message.
+        doc: its module docstring, whose first line describes the command.
+        region: if given, the default of ``--region``, the name of the volume physical group.
+        **options: option name (a keyword of ``build``; on the command line with ``--`` and dashes
+            for underscores) -> the keyword arguments of ``argparse.ArgumentParser.add_argument``,
+            or just a default (an int or a float: the option takes one number of its type).
+
+    Returns:
+        ``main(argv=None)``, which parses ``argv`` (default ``sys.argv[1:]``) and runs :func:`run_cli`.
+    """
+    def main(argv: Sequence[str] | None = None) -> None:
+        parser = argparse.ArgumentParser(prog=f"python3 -m {module}", description=doc.splitlines()[0])
+        parser.add_argument("--out", required=True, help="the .msh file to write")
+        for name, keywords in options.items():
+            if not isinstance(keywords, dict):
+                keywords = {"type": type(keywords), "default": keywords}
+            parser.add_argument(f"--{name.replace('_', '-')}", dest=name, **keywords)
+        if region is not None:
+            parser.add_argument("--region", default=region, help="name of the volume physical group")
+        run_cli(parser, build, argv)
+
+    main.__doc__ = f"Command-line entry point: {doc.splitlines()[0]} (written on rank 0 under MPI)."
+    return main
+
+
+def run_cli(parser: argparse.ArgumentParser, build: Callable, argv: Sequence[str] | None = None) -> None:
     """Parse a builder's command line, then write the .msh file and report on rank 0.
 
     An invalid parameter exits with status 2 and the usage message, like any argparse error.

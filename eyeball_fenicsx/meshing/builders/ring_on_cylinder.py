@@ -14,14 +14,12 @@ The bodies share no node. Physical groups: volumes "cylinder" and "ring"; surfac
 
 Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.ring_on_cylinder --out ring.msh --n-circ 24 --sector 90``
 """
-import argparse
-import math
 
 import numpy as np
 
-from eyeball_fenicsx.errors import SceneError
-
-from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli
+from ...checks import is_number
+from ...errors import SceneError
+from .hexes import add_hex_model, boundary_quads, builder_main, check, hex_grid
 
 
 def _annulus(inner, outer, length, angles, closed, n_radial, n_length):
@@ -40,8 +38,10 @@ def _annulus(inner, outer, length, angles, closed, n_radial, n_length):
     return nodes, hexes.reshape(-1, 8), {name: boundary_quads(hexes, side) for name, side in sides.items()}
 
 
-def ring_on_cylinder_geometry(radius=10.0, bore=5.0, length=1.0, ring_thickness=0.25, gap=0.0, n_circ=24,
-                              sector=90.0, n_radial=3, n_length=2, n_thick=1):
+def ring_on_cylinder_geometry(radius: float = 10.0, bore: float = 5.0, length: float = 1.0,
+                              ring_thickness: float = 0.25, gap: float = 0.0, n_circ: int = 24, sector: float = 90.0,
+                              n_radial: int = 3, n_length: int = 2,
+                              n_thick: int = 1) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Nodes, hexahedra by region and named boundary quadrilaterals (see module docstring).
 
     Args:
@@ -68,7 +68,7 @@ def ring_on_cylinder_geometry(radius=10.0, bore=5.0, length=1.0, ring_thickness=
         check("ring_on_cylinder", name, value, "positive integer")
     if not bore < radius:
         raise SceneError(f"ring_on_cylinder: bore {bore!r} must be less than radius {radius!r}")
-    if isinstance(gap, bool) or not isinstance(gap, (int, float)) or not math.isfinite(gap) or gap < 0:
+    if not is_number(gap) or gap < 0:
         raise SceneError(f"ring_on_cylinder: gap must be a finite number >= 0, got {gap!r}")
     facets = sector / (360.0 / n_circ)
     if not (abs(facets - round(facets)) < 1e-9 and 1 <= round(facets) <= n_circ):
@@ -88,27 +88,15 @@ def ring_on_cylinder_geometry(radius=10.0, bore=5.0, length=1.0, ring_thickness=
     return np.concatenate(nodes), regions, surfaces
 
 
-def build_ring_on_cylinder(**parameters):
+def build_ring_on_cylinder(**parameters) -> None:
     """Add the gmsh model "ring_on_cylinder" (keywords of :func:`ring_on_cylinder_geometry`)."""
     nodes, regions, surfaces = ring_on_cylinder_geometry(**parameters)
     add_hex_model("ring_on_cylinder", nodes, None, None, surfaces, regions=regions)
 
 
-def main(argv=None):
-    """Command-line entry point: write a ring-on-cylinder mesh."""
-    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.ring_on_cylinder", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True)
-    parser.add_argument("--radius", type=float, default=10.0)
-    parser.add_argument("--bore", type=float, default=5.0)
-    parser.add_argument("--length", type=float, default=1.0)
-    parser.add_argument("--ring-thickness", dest="ring_thickness", type=float, default=0.25)
-    parser.add_argument("--gap", type=float, default=0.0)
-    parser.add_argument("--n-circ", dest="n_circ", type=int, default=24)
-    parser.add_argument("--sector", type=float, default=90.0)
-    parser.add_argument("--n-radial", dest="n_radial", type=int, default=3)
-    parser.add_argument("--n-length", dest="n_length", type=int, default=2)
-    parser.add_argument("--n-thick", dest="n_thick", type=int, default=1)
-    run_cli(parser, build_ring_on_cylinder, argv)
+main = builder_main(build_ring_on_cylinder, "eyeball_fenicsx.meshing.builders.ring_on_cylinder", __doc__, radius=10.0,
+                    bore=5.0, length=1.0, ring_thickness=0.25, gap=0.0, n_circ=24, sector=90.0, n_radial=3,
+                    n_length=2, n_thick=1)
 
 
 if __name__ == "__main__":

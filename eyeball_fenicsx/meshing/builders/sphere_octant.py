@@ -8,18 +8,16 @@ extruded radially: every node lies on a sphere r = r_k, k = 0 .. layers.
 
 Usage: ``/usr/bin/python3 -m eyeball_fenicsx.meshing.builders.sphere_octant --out octant.msh --n 16 --layers 8``
 """
-import argparse
 
 import numpy as np
 
-from eyeball_fenicsx.errors import SceneError
-
-from .hexes import add_hex_model, boundary_quads, check, hex_grid, run_cli, write_msh
+from ...errors import SceneError
+from .hexes import add_hex_model, boundary_quads, builder_main, check, hex_grid, msh_writer
 
 _SYMMETRY_PLANES = ("sym_x", "sym_y", "sym_z")
 
 
-def octant_directions(n):
+def octant_directions(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit directions of the cube-sphere nodes on the octant, shared nodes merged.
 
     A node is identified by its integer cube coordinates K (0 <= K_i <= n, max K_i = n): on the
@@ -47,7 +45,7 @@ def octant_directions(n):
     return tangents / np.linalg.norm(tangents, axis=1, keepdims=True), patches.reshape(3, n + 1, n + 1)
 
 
-def layer_radii(inner_radius, outer_radius, layers, grading):
+def layer_radii(inner_radius: float, outer_radius: float, layers: int, grading: float) -> np.ndarray:
     """Radii of the node spheres: each layer ``grading`` times as thick as the one inside it.
 
     Args:
@@ -68,7 +66,8 @@ def layer_radii(inner_radius, outer_radius, layers, grading):
     return inner_radius + (outer_radius - inner_radius) * fractions
 
 
-def build_sphere_octant(inner_radius=1.0, outer_radius=2.0, n=16, layers=8, region="wall", grading=1.0):
+def build_sphere_octant(inner_radius: float = 1.0, outer_radius: float = 2.0, n: int = 16, layers: int = 8,
+                        region: str = "wall", grading: float = 1.0) -> None:
     """Add the gmsh model "sphere_octant": the shell octant in 3 n^2 layers 8-node hexahedra.
 
     Call on the rank that owns gmsh, with gmsh initialized. Physical groups: the volume ``region``
@@ -111,28 +110,13 @@ def build_sphere_octant(inner_radius=1.0, outer_radius=2.0, n=16, layers=8, regi
     add_hex_model("sphere_octant", nodes, np.concatenate([h.reshape(-1, 8) for h in hexes]), region, surfaces)
 
 
-def write(path, **options):
-    """Write the shell octant as an MSH 4.1 file in a private gmsh session (serial).
-
-    Args:
-        path: the .msh file to write.
-        **options: keyword arguments of :func:`build_sphere_octant`.
-    """
-    write_msh(path, build_sphere_octant, **options)
-
-
-def main(argv=None):
-    """Command-line entry point: write a shell-octant mesh (on rank 0 when run under MPI)."""
-    parser = argparse.ArgumentParser(prog="python3 -m eyeball_fenicsx.meshing.builders.sphere_octant", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, help="the .msh file to write")
-    parser.add_argument("--inner-radius", type=float, default=1.0)
-    parser.add_argument("--outer-radius", type=float, default=2.0)
-    parser.add_argument("--n", type=int, default=16, help="quadrilaterals along each patch edge")
-    parser.add_argument("--layers", type=int, default=8, help="hexahedra through the thickness")
-    parser.add_argument("--region", default="wall", help="name of the volume physical group")
-    parser.add_argument("--grading", type=float, default=1.0,
-                        help="thickness ratio of consecutive layers, outer over inner (> 1 refines the inside)")
-    run_cli(parser, build_sphere_octant, argv)
+write = msh_writer(build_sphere_octant)
+main = builder_main(build_sphere_octant, "eyeball_fenicsx.meshing.builders.sphere_octant", __doc__, region="wall",
+                    inner_radius=1.0, outer_radius=2.0,
+                    n=dict(type=int, default=16, help="quadrilaterals along each patch edge"),
+                    layers=dict(type=int, default=8, help="hexahedra through the thickness"),
+                    grading=dict(type=float, default=1.0, help="thickness ratio of consecutive layers, outer over "
+                                 "inner (> 1 refines the inside)"))
 
 
 if __name__ == "__main__":

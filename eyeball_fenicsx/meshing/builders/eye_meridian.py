@@ -1,0 +1,199 @@
+"""The meridional section of the eye (eyeball_fenicsx/meshing/builders/eye.py): anatomy, tissue boundaries, node rows.
+
+The optic axis is the z axis, the corneal apex at +z and the origin the centre of the spherical
+sclera; a point of the section is (rho, z), rho >= 0 its distance from the axis. The section is
+a few structured quadrilateral blocks, whose rows of nodes :class:`Meridian` places:
+
+* the corneoscleral shell: sclera from the posterior pole to the limbus, then cornea to the apex,
+  with its nodes on lines C(s) + d n(s), where C(s) is the outer surface by arc length s from the
+  posterior pole, n(s) the inward normal and d the depth (the two normals are blended over
+  0.8 mm at the limbus, where the surface has a kink);
+* the inner layers on the same lines: choroid and retina from the pole to the ora serrata, then
+  the ciliary body to the scleral spur, thickening from the pars plana to the pars plicata; the
+  retina ends at the ora serrata, the ciliary body's front face is the iris root (no iris);
+* the zonule, a fan-shaped ring from the pars plicata to the lens equator;
+* the lens, between two spherical surfaces and a short equatorial rim;
+* the optic nerve, a cylinder behind the posterior pole (on the axis, as in an axisymmetric model).
+
+The outer surface is two spheres: the sclera, of radius R_o about the origin, and the cornea, of
+radius 7.8 mm, meeting at the limbus, of radius rho_l. R_o follows from the axial length (corneal
+apex to the vitreoretinal interface on the axis): R_o + sqrt(R_o^2 - rho_l^2) = a, a the axial
+length less the corneal sagitta plus the wall at the pole. The sclera thins from the pole to the equator as
+cos^2 of the polar angle and thickens again to the limbus; the cornea thickens quadratically in
+its own polar angle from its central thickness to the limbal sclera's. Blends are
+``smoothstep`` = sin^2(pi x / 2), C1 with zero slope at both ends.
+
+Sources of the anatomy (beside each constant): the Le Grand full theoretical eye (Atchison &
+Smith, Optics of the Human Eye, 2000, appendix A); Rosen et al., Vision Res. 46:1002, 2006 (the
+lens diameter); Rüfer et al., Cornea 24:259, 2005 (the limbus); Hogan, Alvarado & Weddell,
+Histology of the Human Eye, 1971 (ora serrata, ciliary body); Borges-Giampani & Giampani, in
+Glaucoma - Basic and Clinical Aspects, InTech 2013 (the ciliary body's section).
+"""
+import math
+
+import numpy as np
+
+from ...errors import SceneError
+
+# --- anatomy (mm) -----------------------------------------------------------------------------
+# Le Grand full theoretical eye, in Atchison & Smith, Optics of the Human Eye (2000), appendix A:
+# anterior corneal radius 7.8, aqueous depth 3.05, lens 4.0 thick with radii 10.2 and -6.0,
+# cornea to retina 24.2 (24.0 in Navarro's eye).
+CORNEA_RADIUS = 7.8
+ANTERIOR_CHAMBER_DEPTH = 3.05  # posterior cornea to anterior lens, on the axis
+LENS_THICKNESS = 4.0
+LENS_ANTERIOR_RADIUS = 10.2
+LENS_POSTERIOR_RADIUS = 6.0
+# Lens equatorial diameter 8.7-9.9 mm in adults (Rosen et al., Vision Res. 46:1002, 2006).
+LENS_DIAMETER = 9.2
+# Corneal (white-to-white) diameter 11.71 +- 0.42 mm (Rüfer et al., Cornea 24:259, 2005).
+LIMBUS_DIAMETER = 11.8
+# Ora serrata 6-7 mm behind the limbus; ciliary body ~6 mm long: pars plana ~4 mm, pars plicata
+# ~2 mm, from the ora to the scleral spur ~1 mm behind the limbus (Hogan, Alvarado & Weddell,
+# Histology of the Human Eye, 1971).
+ORA_TO_LIMBUS = 6.5
+SPUR_TO_LIMBUS = 1.0
+# In section the ciliary body is a right triangle ~6 mm long, its pars plicata ~2 mm long with
+# processes 0.8-1 mm high on the ciliary muscle (Borges-Giampani & Giampani, in Glaucoma - Basic
+# and Clinical Aspects, InTech 2013): here 1.2 mm thick at the pars plicata, where the zonule
+# leaves it (3.0 to 1.4 mm behind the limbus) for the lens equator.
+CILIARY_THICKNESS = 1.2
+ZONULE_POSTERIOR_TO_LIMBUS = 3.0
+ZONULE_ANTERIOR_TO_LIMBUS = 1.4
+LIMBUS_BLEND = 0.8  # half-width over which the shell's lines turn from the scleral to the corneal normal
+
+# --- mesh sizes at refine = 1 ---------------------------------------------------------------
+SPACING = 0.8       # meridional element size along the shell (mm)
+CORNEA_CORE = 1.3   # radius (arc length) of the corneal butterfly core (mm)
+LENS_CORE = 1.2     # radius of the lens butterfly core (mm)
+CORE_SQUARE = 0.5   # half-side of the core square / core radius
+SCLERA_LAYERS, CHOROID_LAYERS, RETINA_LAYERS = 2, 1, 1
+LENS_LAYERS, ZONULE_COLUMNS, LENS_COLUMNS, NERVE_LAYERS = 4, 3, 4, 3
+N_CIRC = 40         # sectors of the full circle at refine = 1
+
+
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """0 for x <= 0, 1 for x >= 1, sin^2(pi x / 2) between: C1 with zero slope at both ends."""
+    return np.sin(np.pi / 2 * np.clip(x, 0.0, 1.0)) ** 2
+
+
+def unit(v: np.ndarray) -> np.ndarray:
+    """v divided by its length, along its last axis."""
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+class Meridian:
+    """The meridional section (rho, z) of the eye: curves, layer depths and column positions."""
+
+    def __init__(self, p: dict):
+        self.p = p
+        rho_l = LIMBUS_DIAMETER / 2
+        self.rho_l, self.Rc = rho_l, CORNEA_RADIUS
+        corneal_sag = CORNEA_RADIUS - math.sqrt(CORNEA_RADIUS**2 - rho_l**2)
+        pole_wall = p["sclera_thickness_pole"] + p["choroid_thickness"] + p["retina_thickness"]
+        # Corneal apex to the vitreoretinal interface on the axis: Ro + sqrt(Ro^2 - rho_l^2) = a.
+        a = p["axial_length"] - corneal_sag + pole_wall
+        if a <= rho_l:
+            raise SceneError(f"eye: axial_length {p['axial_length']} is too short for a limbus of diameter "
+                             f"{LIMBUS_DIAMETER} mm")
+        self.Ro = (a * a + rho_l**2) / (2 * a)
+        z_l = a - self.Ro
+        self.theta_l = math.atan2(rho_l, -z_l)
+        self.s_l = self.Ro * self.theta_l
+        self.z_cc = z_l - math.sqrt(CORNEA_RADIUS**2 - rho_l**2)
+        self.z_apex = self.z_cc + CORNEA_RADIUS
+        self.phi_l = math.asin(rho_l / CORNEA_RADIUS)
+        self.S = self.s_l + CORNEA_RADIUS * self.phi_l
+        self.n_limbus = unit(np.array([-math.sin(self.theta_l), math.cos(self.theta_l)])
+                             + np.array([-math.sin(self.phi_l), -math.cos(self.phi_l)]))
+        self.s_ora = self.s_l - ORA_TO_LIMBUS
+        self.s_z0 = self.s_l - ZONULE_POSTERIOR_TO_LIMBUS
+        self.s_z1 = self.s_l - ZONULE_ANTERIOR_TO_LIMBUS
+        self.s_spur = self.s_l - SPUR_TO_LIMBUS
+        self.nerve_radius = p["optic_nerve_diameter"] / 2
+        if not self.nerve_radius < 0.5 * self.Ro:
+            raise SceneError(f"eye: optic_nerve_diameter {p['optic_nerve_diameter']} is too large")
+        self.s_nerve = self.Ro * math.asin(self.nerve_radius / self.Ro)
+        self.z_nerve_end = -self.Ro - p["optic_nerve_length"]
+        # Lens (Le Grand): anterior pole at the aqueous depth behind the posterior cornea.
+        self.z_lens_front = self.z_apex - p["cornea_thickness"] - ANTERIOR_CHAMBER_DEPTH
+        self.z_lens_back = self.z_lens_front - LENS_THICKNESS
+        self.rho_lens = LENS_DIAMETER / 2
+        r = self.p["refine"]
+        self.fractions = np.concatenate([
+            np.linspace(0.0, p["choroid_thickness"], CHOROID_LAYERS * r + 1),
+            np.linspace(p["choroid_thickness"], p["choroid_thickness"] + p["retina_thickness"],
+                        RETINA_LAYERS * r + 1)[1:]]) / (p["choroid_thickness"] + p["retina_thickness"])
+        self.columns = self._columns()
+
+    def outer(self, s):
+        """The outer surface C(s) and the unit vector n(s) of the shell's line, by arc length s from
+        the posterior pole: shape (..., 2) each, in (rho, z)."""
+        s = np.asarray(s, dtype=float)
+        theta = np.minimum(s, self.s_l) / self.Ro
+        phi = np.maximum(self.S - s, 0.0) / self.Rc
+        on_sclera = (s <= self.s_l)[..., None]
+        point = np.where(on_sclera, np.stack([self.Ro * np.sin(theta), -self.Ro * np.cos(theta)], axis=-1),
+                         np.stack([self.Rc * np.sin(phi), self.z_cc + self.Rc * np.cos(phi)], axis=-1))
+        normal = np.where(on_sclera, np.stack([-np.sin(theta), np.cos(theta)], axis=-1),
+                          np.stack([-np.sin(phi), -np.cos(phi)], axis=-1))
+        weight = smoothstep(1.0 - np.abs(s - self.s_l) / LIMBUS_BLEND)[..., None]
+        return point, unit((1 - weight) * normal + weight * self.n_limbus)
+
+    def shell_thickness(self, s):
+        """Sclera (s <= s_l) or cornea (s > s_l) thickness."""
+        p = self.p
+        s = np.asarray(s, dtype=float)
+        theta = np.minimum(s, self.s_l) / self.Ro
+        posterior = p["sclera_thickness_equator"] + (p["sclera_thickness_pole"] - p["sclera_thickness_equator"]) \
+            * np.cos(np.minimum(theta, np.pi / 2)) ** 2
+        anterior = p["sclera_thickness_equator"] + (p["sclera_thickness_limbus"] - p["sclera_thickness_equator"]) \
+            * smoothstep((theta - np.pi / 2) / (self.theta_l - np.pi / 2))
+        phi = np.maximum(self.S - s, 0.0) / self.Rc
+        cornea = p["cornea_thickness"] \
+            + (p["sclera_thickness_limbus"] - p["cornea_thickness"]) * (phi / self.phi_l) ** 2
+        return np.where(s > self.s_l, cornea, np.where(theta <= np.pi / 2, posterior, anterior))
+
+    def inner_thickness(self, s):
+        """Choroid + retina up to the ora serrata, then the ciliary body thickening to the pars plicata."""
+        base = self.p["choroid_thickness"] + self.p["retina_thickness"]
+        return base + (CILIARY_THICKNESS - base) * smoothstep((np.asarray(s) - self.s_ora) / (self.s_z0 - self.s_ora))
+
+    def shell_row(self, s, j):
+        point, normal = self.outer(s)
+        layers = SCLERA_LAYERS * self.p["refine"]
+        return point + (j / layers * self.shell_thickness(s))[..., None] * normal
+
+    def inner_row(self, s, j):
+        point, normal = self.outer(s)
+        depth = self.shell_thickness(s) + self.fractions[j] * self.inner_thickness(s)
+        return point + depth[..., None] * normal
+
+    def nerve_row(self, s, k):
+        point, _ = self.outer(s)
+        layers = NERVE_LAYERS * self.p["refine"]
+        z = self.z_nerve_end + k / layers * (point[..., 1] - self.z_nerve_end)
+        return np.stack([point[..., 0], z], axis=-1)
+
+    def lens_row(self, rho, j):
+        rho = np.asarray(rho, dtype=float)
+        front = self.z_lens_front - (LENS_ANTERIOR_RADIUS - np.sqrt(LENS_ANTERIOR_RADIUS**2 - rho**2))
+        back = self.z_lens_back + (LENS_POSTERIOR_RADIUS - np.sqrt(LENS_POSTERIOR_RADIUS**2 - rho**2))
+        return np.stack([rho, back + j / (LENS_LAYERS * self.p["refine"]) * (front - back)], axis=-1)
+
+    def _columns(self):
+        """Arc lengths of the revolved columns of the shell, from the nerve core to the corneal core."""
+        r = self.p["refine"]
+        stops = [(self.s_nerve, None), (self.s_ora, None), (self.s_z0, None),
+                 (self.s_z1, LENS_LAYERS * r), (self.s_spur, None), (self.s_l, None), (self.S - CORNEA_CORE, None)]
+        columns = [np.array([self.s_nerve])]
+        self.index = {}
+        for (start, _), (stop, count) in zip(stops, stops[1:]):
+            if stop <= start + 0.1:
+                raise SceneError("eye: the anatomy does not fit: check axial_length and the thicknesses")
+            count = count or max(1, round((stop - start) / SPACING)) * r
+            columns.append(np.linspace(start, stop, count + 1)[1:])
+        columns = np.concatenate(columns)
+        for name, value in (("z0", self.s_z0), ("z1", self.s_z1), ("spur", self.s_spur)):
+            self.index[name] = int(np.argmin(np.abs(columns - value)))
+        return columns
