@@ -12,9 +12,9 @@ _PUBLIC = {
     "LiquidCavity": "features.cavity", "Injection": "features.cavity", "Drainage": "features.cavity",
     "Suture": "features.sutures", "BandTightening": "features.band",
     "LinearElastic": "mechanics.materials", "MooneyRivlin": "mechanics.materials", "NeoHooke": "mechanics.materials",
-    "EyeMeasures": "output.measures",
+    "EyeMeasures": "output.measures", "EyePictures": "output.eye_pictures",
     "Scene": "scene.scene", "Step": "scene.scene", "load_scene": "scene.loader",
-    "SolverSettings": "system.stepping",
+    "SolverSettings": "system.settings",
     "load_mesh": "meshing.load", "built_mesh": "meshing.load",
 }
 __all__ = sorted(_PUBLIC)

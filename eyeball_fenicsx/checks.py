@@ -6,6 +6,7 @@ and what it must be. The scene tables (``scene/tables.py``) prefix it with the f
 the features and materials call the same checks for their Python API.
 """
 import math
+from collections.abc import Iterable
 from numbers import Integral, Real
 
 from .errors import SceneError
@@ -36,17 +37,26 @@ def integer(value, what: str) -> int:
 
 
 def numbers(value, what: str, length: int | None = None) -> list:
-    """A non-empty list of finite numbers (of ``length`` entries if given: 3 for a vector)."""
-    if (not isinstance(value, (list, tuple)) or not value or (length is not None and len(value) != length)
-            or not all(is_number(v) for v in value)):
+    """A non-empty list of finite numbers (of ``length`` entries if given: 3 for a vector); a
+    tuple or a NumPy array of them is taken too."""
+    items = list(value) if isinstance(value, Iterable) and not isinstance(value, (str, bytes, dict)) else None
+    if not items or (length is not None and len(items) != length) or not all(is_number(v) for v in items):
         count = f"{length} " if length is not None else ""
         raise SceneError(f"{what} must be a list of {count}finite numbers, got {value!r}")
-    return [float(v) for v in value]
+    return [float(v) for v in items]
 
 
 def vector(value, what: str) -> list:
     """A list of 3 finite numbers."""
     return numbers(value, what, length=3)
+
+
+def nonzero_vector(value, what: str) -> list:
+    """A list of 3 finite numbers, not all zero (a direction)."""
+    components = vector(value, what)
+    if not any(components):
+        raise SceneError(f"{what} must be a non-zero vector of three numbers, got {value!r}")
+    return components
 
 
 def string(value, what: str) -> str:

@@ -12,6 +12,7 @@ import os
 import subprocess
 import sys
 
+import pytest
 from conftest import REPO
 
 PACKAGE = os.path.join(REPO, "eyeball_fenicsx")
@@ -116,3 +117,26 @@ def test_the_example_feature():
     namespace = {}
     exec(compile("".join(blocks), "docs/architecture.md", "exec"), namespace)
     assert namespace["equilibrium_error"] < 1e-8
+
+
+def test_a_feature_that_plays_part_of_a_role_is_refused():
+    """A Protocol checks only that members exist: a feature with a tangent's methods but no
+    ``symmetric_tangent`` would be left out of the tangent without a word. The problem refuses it."""
+
+    from eyeball_fenicsx.features.base import Feature
+    from eyeball_fenicsx.features.roles import NodalTangent, check_whole_role
+
+    class HalfATangent(Feature):
+        name = "half"
+
+        def coupling(self):
+            return None
+
+        def add_to_jacobian(self, A):
+            pass
+
+    refused = r"HalfATangent 'half' plays part of the role NodalTangent .* \['symmetric_tangent'\]"
+    with pytest.raises(TypeError, match=refused):
+        check_whole_role(HalfATangent(), NodalTangent)
+    HalfATangent.symmetric_tangent = True
+    check_whole_role(HalfATangent(), NodalTangent)  # the whole role: accepted

@@ -26,7 +26,7 @@ def test_bare_scene_is_the_plain_hyperelastic_system(sphere_mesh):
     of the mixed u-p form: same size, same nonzeros, nothing allocated beyond them."""
     scene = ef.Scene("bare", sphere_mesh(n=4, layers=2), {"wall": ef.NeoHooke(0.5)},
                      features=SYMMETRY + [ef.Pressure("inner", 0.1)]).build()
-    assert not scene.problem.bordered and not scene.problem.custom and scene.problem.m == 0
+    assert not scene.problem.global_unknowns and not scene.problem.nodal_residuals and scene.problem.m == 0
     size, used, allocated = assembled(scene)
     reference = assemble_matrix(scene.problem.J_form, scene.problem.bcs)
     reference.assemble()

@@ -52,6 +52,7 @@ from .policy import (
     AITKEN_BOUNDS,
     AUGMENT_DEPTH,
     MAX_AUGMENTATIONS,
+    NEWTON_OPTIONS,
     ONSET_DEPTH,
     ONSET_ITERATIONS,
     OPEN_RANGE,
@@ -85,6 +86,7 @@ class ContactFeature(Feature):
 
     section = "contact"
     symmetric_tangent = False  # True in a subclass whose tangent is the Hessian of a potential
+    newton_options = NEWTON_OPTIONS  # the plain line search its onset limit needs (policy.py)
 
     def __init__(self, name: str, slave: str, penalty: float | None, step: int, smoothing: float):
         self.name, self.slave_name, self.step = name, slave, step

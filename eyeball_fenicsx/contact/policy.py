@@ -5,7 +5,8 @@ stiffness E/h of the two surface layers of elements in series (``surface.py``). 
 augmented Lagrangian (``base.py``) removes its penetration, so the factor only sets how
 many augmentations a step needs (a softer penalty: more) against how hard contact onset is
 for Newton (a stiffer one: a point that closes in one step meets a pressure far above the
-loads). 3 is the fewest Newton iterations of the encircling operation among 1, 3, 10, 30.
+loads). The factor is the one of 1, 3, 10 and 30 with which the encircling operation takes
+the fewest Newton iterations (the study is in the git log and benchmarks/README.md).
 """
 PENALTY_FACTOR = 3.0
 SEARCH_FACTOR = 1.0  # candidate segments lie within this many segment sizes of a point (plus the last motion)

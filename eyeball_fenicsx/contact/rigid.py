@@ -23,9 +23,7 @@ def _point(value: Sequence[float], what: str) -> np.ndarray:
 
 
 def _unit(vector: Sequence[float], what: str) -> np.ndarray:
-    v = _point(vector, what)
-    if np.linalg.norm(v) == 0:
-        raise SceneError(f"{what} must be a non-zero vector of three numbers, got {vector!r}")
+    v = np.array(checks.nonzero_vector(vector, what))
     return v / np.linalg.norm(v)
 
 

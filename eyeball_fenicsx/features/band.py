@@ -40,9 +40,7 @@ class BandTightening(Feature):
         if reduction < 0:
             raise SceneError(f"band {region!r}: reduction is how much the band's circumference is shortened; it must "
                              f"not be negative, got {reduction!r}")
-        axis = np.array(checks.vector(axis, f"band {region!r}: axis"))
-        if not np.linalg.norm(axis) > 0:
-            raise SceneError(f"band {region!r}: axis must be a non-zero vector of three numbers, got {axis.tolist()}")
+        axis = np.array(checks.nonzero_vector(axis, f"band {region!r}: axis"))
         self.name = self.region = region
         self.reduction, self.step = reduction, step
         self.center = np.array(checks.vector(center, f"band {region!r}: center"))

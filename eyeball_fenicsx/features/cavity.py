@@ -101,8 +101,10 @@ class LiquidCavity(Feature):
         unknown = sorted(set(symmetry) - set(AXES))
         if unknown:
             raise SceneError(f"{what}symmetry planes must be among 'x', 'y', 'z', got {unknown}")
-        if self.algorithm is None or algorithm not in (None, self.algorithm):
-            raise SceneError(f"{what}algorithm must be 'new' or 'previous', got {algorithm!r}")
+        if self.algorithm is None:
+            raise SceneError(f"{what}algorithm must be one of {sorted(ALGORITHMS)}, got {algorithm!r}")
+        if algorithm not in (None, self.algorithm):
+            raise SceneError(f"{what}{type(self).__name__} is the {self.algorithm!r} algorithm, got {algorithm!r}")
         if pressurize and injected_volume:
             raise SceneError(f"{what}pressurize fills the cavity to its initial_pressure; give no injected_volume "
                              "with it (use an injection in a later step)")
@@ -349,7 +351,7 @@ class CondensedCavity(LiquidCavity):
         return index_map.local_to_global(np.asarray(local, dtype=np.int32)).astype(PETSc.IntType)
 
 
-ALGORITHMS = {"new": BorderedCavity, "previous": CondensedCavity}
+ALGORITHMS = {c.algorithm: c for c in (BorderedCavity, CondensedCavity)}  # the seed's names
 
 
 class Drainage(Feature):

@@ -15,6 +15,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .. import checks
 from ..errors import SceneError
 from ..mechanics.solid import MaterialNode, MixedSolid
 from .base import AXES, Feature
@@ -28,13 +29,12 @@ class Dirichlet(Feature):
         components: {"x": value, ...}; only the listed components are constrained.
     """
 
-    section = "reactions"
-
     def __init__(self, surface: str, components: dict[str, float], step: int = 0):
-        if not components:
-            raise SceneError(f"dirichlet on {surface!r}: give at least one of x, y, z")
+        what = f"dirichlet on {surface!r}"
+        if not components or set(components) - set(AXES):
+            raise SceneError(f"{what}: give one or more of x, y, z, got {sorted(components)}")
         self.name = self.surface = surface
-        self.components = {AXES[c]: float(v) for c, v in components.items()}
+        self.components = {AXES[c]: checks.number(v, f"{what}: {c}") for c, v in components.items()}
         self.step = step
 
     def setup(self, solid: MixedSolid) -> None:
@@ -83,7 +83,7 @@ class Pressure(Feature):
 
     def __init__(self, surface: str, value: float, step: int = 0):
         self.name = self.surface = surface
-        self.value = float(value)
+        self.value = checks.number(value, f"pressure on {surface!r}: value")
         self.step = step
 
     def setup(self, solid: MixedSolid) -> None:
@@ -108,9 +108,11 @@ class NodalForce(Feature):
 
     def __init__(self, value: Sequence[float], surface: str | None = None, point: Sequence[float] | None = None,
                  step: int = 0):
-        self.surface, self.point = surface, point
+        if (surface is None) == (point is None):
+            raise SceneError("force: give exactly one of surface or point")
+        self.surface, self.point = surface, None if point is None else checks.vector(point, "force: point")
         self.name = surface or f"node near {point}"
-        self.force = np.asarray(value, dtype=float)
+        self.force = np.asarray(checks.vector(value, f"force on {self.name!r}: value"))
         self.step = step
         self.factor = 0.0
 

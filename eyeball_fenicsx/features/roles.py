@@ -87,6 +87,7 @@ class StateDependent(Protocol):
 
 @runtime_checkable
 class ActiveSet(Protocol):
+    newton_options: dict  # PETSc options (without prefix) Newton needs while the set may change
     def begin_increment(self) -> bool:
         """Before each load increment (after the loads are set): search; True if ``coupling()``
         changed, so that the matrix is preallocated anew."""
@@ -105,3 +106,15 @@ class ActiveSet(Protocol):
     def augment(self) -> bool:
         """Collective: after Newton converged an increment, update what the converged state
         decides; False if Newton must solve again."""
+
+
+def check_whole_role(feature: object, role: type) -> None:
+    """Raise TypeError if ``feature`` defines some of ``role``'s methods but lacks one of its
+    members: it would be left out of the role without a word (a Protocol checks only that
+    members exist)."""
+    methods = [name for name, value in vars(role).items() if callable(value) and not name.startswith("_")]
+    members = methods + list(vars(role).get("__annotations__", {}))
+    missing = [name for name in members if not hasattr(feature, name)]
+    if missing and any(hasattr(feature, name) for name in methods):
+        raise TypeError(f"{type(feature).__name__} {getattr(feature, 'name', '')!r} plays part of the role "
+                        f"{role.__name__} (features/roles.py) but lacks {missing}")

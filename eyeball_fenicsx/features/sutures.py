@@ -60,7 +60,7 @@ class Suture(Feature):
         what = f"suture {name!r}: "
         tension = None if tension is None else checks.number(tension, what + "tension", "nonnegative")
         shortening = None if shortening is None else checks.number(shortening, what + "shortening", "nonnegative")
-        stiffness = None if stiffness is None else checks.number(stiffness, what + "stiffness", "nonnegative")
+        stiffness = None if stiffness is None else checks.number(stiffness, what + "stiffness", "positive")
         if not 0 < checks.number(share, what + "share") <= 1:
             raise SceneError(f"{what}share must be in (0, 1], got {share!r}")
         self.name, self.step, self.share = name, step, float(share)

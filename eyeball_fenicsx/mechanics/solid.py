@@ -32,7 +32,7 @@ from .kinematics import cauchy_stress, deformation_gradient, von_mises
 from .materials import MooneyRivlin, Prestretched
 
 # A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
-# up after 10 s, too short for the eye's forms on a busy two-core machine.
+# up after 10 s, too short for the eye's forms on a machine with few cores.
 jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"] = (600, jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"][1])
 
 # name -> (displacement degree, pressure family, pressure degree). Q2P1 is the quadratic

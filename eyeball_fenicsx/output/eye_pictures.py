@@ -1,25 +1,45 @@
 """Pictures of the eye model: its meridional section with the tissues coloured or its stress,
 the retina's gap from the choroid over a detachment, and the eye measures over the steps of a
-run. Files appear atomically (output/files.py). The eye measures (output/measures.py) draw
-the pictures of a run after each step and at its end; these functions only draw what they are
-given."""
+run. Files appear atomically (output/files.py). The functions only draw what they are given.
+
+Data path: ``EyePictures`` observes the runs of a scene with an output folder (output/observer.py),
+after the ``EyeMeasures`` (output/measures.py) whose results it draws: after each converged step
+``section_<step>.png`` (the deformed meridional section coloured by the von Mises stress the
+measures just interpolated) and, with a detachment, ``retina_gap_<step>.png`` (the gap they just
+measured, flattened), and at the end of a run ``eye_measures.png`` (the scalar measures of that
+run's steps, from its summary).
+"""
+from __future__ import annotations
+
+import os
+import re
+from typing import TYPE_CHECKING
+
 import numpy as np
-from dolfinx import cpp
+from dolfinx import cpp, fem
 
 from .files import flatten, plot_curves, save_figure_atomic
+from .measures import DETACHED_GAP, EyeMeasures, polar_angle
+from .observer import Observer
+
+if TYPE_CHECKING:
+    from ..mechanics.solid import MixedSolid
+    from ..meshing.load import MeshData
+    from ..system.problem import Problem
 
 # Tissue colours of the section (matplotlib names); regions not listed are grey.
 TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body": "sienna", "choroid": "firebrick",
                   "retina": "hotpink", "optic_nerve": "gold", "lens": "steelblue", "zonule": "seagreen"}
 
 
-def meridional_section(mesh_data, tolerance: float = 1e-9, solid=None, field=None) -> tuple:
+def meridional_section(mesh_data: MeshData, tolerance: float = 1e-9, solid: MixedSolid | None = None,
+                       field: fem.Function | None = None) -> tuple:
     """Faces of the mesh in the plane y = 0 (the section through the optic axis at azimuth 0 and 180).
 
     Collective.
 
     Args:
-        mesh_data: a :class:`~eyeball_fenicsx.mesh.MeshData` of hexahedra whose nodes lie exactly on
+        mesh_data: a :class:`~eyeball_fenicsx.meshing.load.MeshData` of hexahedra whose nodes lie exactly on
             y = 0 where the section cuts them (true of ``eyeball_fenicsx.meshing.builders.eye``).
         tolerance: distance (mesh units) under which a node is on the plane.
         solid: if given, the faces are drawn in its current (deformed) configuration.
@@ -60,7 +80,7 @@ def meridional_section(mesh_data, tolerance: float = 1e-9, solid=None, field=Non
             np.concatenate([g[2] for g in gathered]) if field is not None else None)
 
 
-def eye_section_png(mesh_data, path: str, title: str | None = None) -> None:
+def eye_section_png(mesh_data: MeshData, path: str, title: str | None = None) -> None:
     """Draw the meridional section of an eye mesh with its tissues coloured, as a PNG (matplotlib Agg).
 
     Collective; rank 0 writes the file.
@@ -96,7 +116,7 @@ def eye_section_png(mesh_data, path: str, title: str | None = None) -> None:
     plt.close(figure)
 
 
-def stress_section_png(solid, mises, path: str, title: str | None = None) -> None:
+def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title: str | None = None) -> None:
     """Draw the deformed meridional section coloured by the von Mises stress (MPa), as the
     seed shows its results. Collective; rank 0 writes the file.
 
@@ -169,3 +189,35 @@ def eye_measures_png(steps: list[dict], path: str) -> None:
     names = [name for name in rows[0] if all(isinstance(row.get(name), float) for row in rows)]
     plot_curves(path, list(range(1, len(rows) + 1)), {name: [row[name] for row in rows] for name in names}, "step",
                 [step["name"] for step in steps])
+
+
+class EyePictures(Observer):
+    """The pictures of the eye's runs (see the module docstring), drawn from ``measures``, an
+    observer of the same scene that comes before this one."""
+
+    def __init__(self, measures: EyeMeasures) -> None:
+        self.measures = measures
+
+    def setup(self, solid: MixedSolid, problem: Problem) -> None:
+        self.solid = solid
+
+    def start(self, scene: str, out_dir: str | None) -> None:
+        self.scene, self.out_dir = scene, out_dir
+
+    def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
+        """Collective: the section coloured by the stress and the retina's gap map of a
+        converged step, as the measures just measured them."""
+        if not self.out_dir or not converged:
+            return
+        label = re.sub(r"[^\w.-]+", "_", step)
+        stress_section_png(self.solid, self.measures.mises, os.path.join(self.out_dir, f"section_{label}.png"),
+                           title=f"{self.scene}, step {step}: von Mises stress (MPa)")
+        X, gap = self.measures.retina_gap_map()
+        if X is not None:
+            retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
+                           os.path.join(self.out_dir, f"retina_gap_{label}.png"), DETACHED_GAP,
+                           title=f"{self.scene}, step {step}: the detached retina")
+
+    def finish(self, summary: dict) -> None:
+        if self.out_dir and self.solid.comm.rank == 0:
+            eye_measures_png(summary["steps"], os.path.join(self.out_dir, "eye_measures.png"))

@@ -4,35 +4,34 @@ Every file appears atomically: summary.json and the PNG pictures are written to 
 name and renamed; the XDMF/HDF5 pair is written in a hidden folder and moved into place when
 closed.
 """
+from __future__ import annotations
+
 import json
 import os
 import shutil
+from typing import TYPE_CHECKING
 
 from dolfinx import fem, io
 from mpi4py import MPI
 
 from .observer import Observer
 
+if TYPE_CHECKING:
+    from ..mechanics.solid import MixedSolid
+    from ..system.problem import Problem
+
 
 class FieldOutput(Observer):
     """Displacement, pressure, von Mises stress and region tags after each step, in XDMF
     (``<name>.xdmf`` and ``.h5`` in the run's folder; time k is the end of step k)."""
 
-    def __init__(self, name: str = "fields"):
+    def __init__(self, name: str = "fields") -> None:
         self.name = name
 
-    def start(self, scene: str, solid, problem, out_dir: str) -> None:
+    def setup(self, solid: MixedSolid, problem: Problem) -> None:
+        """The written functions and the expressions interpolated into them (collective)."""
         self.solid, self.comm = solid, solid.comm
-        self.final = [os.path.join(out_dir, self.name + ext) for ext in (".xdmf", ".h5")]
-        self.hidden = os.path.join(out_dir, f".{self.name}.partial")
-        if self.comm.rank == 0:
-            os.makedirs(self.hidden, exist_ok=True)
-        self.comm.barrier()
         msh = solid.mesh_data.mesh
-        self.file = io.XDMFFile(self.comm, os.path.join(self.hidden, self.name + ".xdmf"), "w")
-        self.file.write_mesh(msh)
-        solid.mesh_data.cell_tags.name = "region"
-        self.file.write_meshtags(solid.mesh_data.cell_tags)
         self.displacement = fem.Function(fem.VectorFunctionSpace(msh, ("Lagrange", 1)), name="displacement")
         self.pressure = fem.Function(fem.FunctionSpace(msh, ("DG", 0)), name="pressure")
         self.mises = fem.Function(self.pressure.function_space, name="von_mises")
@@ -40,6 +39,18 @@ class FieldOutput(Observer):
         self._mises_expr = fem.Expression(solid.mises_expression(), points)
         self._u_expr = fem.Expression(solid.u, self.displacement.function_space.element.interpolation_points())
         self._p_expr = fem.Expression(solid.p, points)
+
+    def start(self, scene: str, out_dir: str) -> None:
+        """Open the files in a hidden folder of ``out_dir`` and write the mesh and its regions."""
+        self.final = [os.path.join(out_dir, self.name + ext) for ext in (".xdmf", ".h5")]
+        self.hidden = os.path.join(out_dir, f".{self.name}.partial")
+        if self.comm.rank == 0:
+            os.makedirs(self.hidden, exist_ok=True)
+        self.comm.barrier()
+        self.file = io.XDMFFile(self.comm, os.path.join(self.hidden, self.name + ".xdmf"), "w")
+        self.file.write_mesh(self.solid.mesh_data.mesh)
+        self.solid.mesh_data.cell_tags.name = "region"
+        self.file.write_meshtags(self.solid.mesh_data.cell_tags)
 
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
         self.displacement.interpolate(self._u_expr)

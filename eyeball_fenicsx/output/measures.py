@@ -58,15 +58,16 @@ With a detachment (the retina's outer surface "retina_outer" and the choroid's i
   both in the current configuration (n their outward normals; a cut plane through the origin
   adds nothing, so a half model reports half of the eye's).
 
-Data path: ``EyeMeasures`` observes a run (output/observer.py): after each step (the failed
-one too) it measures the state into the step's entry of summary.json, under "eye"; with an
-output folder it draws, after each converged step, ``section_<step>.png`` (the deformed
-meridional section coloured by von Mises stress) and with a detachment ``retina_gap_<step>.png``
-(the retina's gap map, ``retina_gap_map``, flattened), and at the end ``eye_measures.png`` (the
-scalar measures over the steps): output/eye_pictures.py.
+Data path: ``EyeMeasures`` observes the runs of a scene (output/observer.py): when the scene
+is built it finds the measured nodes and builds its forms; after each step (the failed one too)
+it measures the state into the step's entry of summary.json, under "eye", and keeps the von
+Mises stress (``mises``) and the retina's gap (``retina_gap_map``) it measured, which the eye's
+pictures then draw (``EyePictures``, output/eye_pictures.py).
 """
-import os
-import re
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import ufl
@@ -78,8 +79,12 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError
 from ..mechanics.solid import MaterialNode
-from .eye_pictures import eye_measures_png, retina_gap_png, stress_section_png
 from .observer import Observer
+
+if TYPE_CHECKING:
+    from ..features.cavity import LiquidCavity
+    from ..mechanics.solid import MixedSolid
+    from ..system.problem import Problem
 
 MMHG_PER_MPA = 7500.62
 DIOPTRES_PER_MM = -2.7
@@ -110,7 +115,7 @@ def polar_angle(X: np.ndarray) -> np.ndarray:
 
 
 class EyeMeasures(Observer):
-    """Eye measures of the current state, and the pictures of a run.
+    """Eye measures of the current state.
 
     Args:
         anterior, posterior: reference points near the corneal apex and the posterior pole
@@ -122,22 +127,24 @@ class EyeMeasures(Observer):
     """
 
     def __init__(self, anterior: list[float], posterior: list[float], anterior_surface: str | None = None,
-                 posterior_surface: str | None = None, vitreous=None, buckle: str | None = None,
-                 sclera: str = "sclera_outer", retina: str | None = None, choroid: str | None = None):
+                 posterior_surface: str | None = None, vitreous: LiquidCavity | None = None,
+                 buckle: str | None = None, sclera: str = "sclera_outer", retina: str | None = None,
+                 choroid: str | None = None) -> None:
         self.points = (anterior, posterior)
         self.surfaces = (anterior_surface, posterior_surface)
         self.vitreous = vitreous
         if (retina is None) != (choroid is None):
             raise SceneError("give both retina and choroid (the faces of the subretinal gap), or neither")
         self.buckle, self.sclera, self.retina, self.choroid = buckle, sclera, retina, choroid
-        self.extra = []  # functions adding measures
+        self.extra: list[Callable[[], dict]] = []  # functions adding measures
         if buckle is not None:
             self.extra.append(self._buckle_height)
         if retina is not None:
             self.extra.append(self._detachment)
 
-    def setup(self, solid) -> None:
-        """Find the measured nodes of ``solid`` and build the measures' forms (collective)."""
+    def setup(self, solid: MixedSolid, problem: Problem | None = None) -> None:
+        """Find the measured nodes of ``solid`` and build the measures' forms (collective); the
+        measures read the solid only (and the ``vitreous``), not ``problem``."""
         self.solid = solid
         self.ends = [MaterialNode(solid, p, s) for p, s in zip(self.points, self.surfaces)]
         self.initial_length = np.linalg.norm(self.ends[0].reference - self.ends[1].reference)
@@ -145,6 +152,7 @@ class EyeMeasures(Observer):
         filled = self.vitreous is not None and self.vitreous.pressurize
         self.preoperative_step = self.vitreous.step if filled else None
         self.step_index = -1
+        self.retina_gap = None  # the gap at the retina's owned nodes, as last measured
         msh = solid.mesh_data.mesh
         self.mises = fem.Function(fem.FunctionSpace(msh, ("DG", 0)))
         points = self.mises.function_space.element.interpolation_points()
@@ -243,7 +251,7 @@ class EyeMeasures(Observer):
     def retina_gap_map(self) -> tuple:
         """Collective. On rank 0, (reference positions, gap) of the retina's nodes as last
         measured; (None, None) elsewhere or without a detachment."""
-        if self.retina is None or not hasattr(self, "retina_gap"):
+        if self.retina_gap is None:
             return None, None
         gathered = self.solid.comm.gather((self.X[self.retina_nodes], self.retina_gap), root=0)
         if self.solid.comm.rank != 0:
@@ -275,28 +283,7 @@ class EyeMeasures(Observer):
             result.update(measure())
         return result
 
-    # -- observing a run (output/observer.py) ------------------------------------------------
-    def start(self, scene: str, solid, problem, out_dir: str | None) -> None:
-        self.setup(solid)
-        self.scene, self.out_dir = scene, out_dir
-
+    # -- observing the runs (output/observer.py) ----------------------------------------------
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
         self.step_index = index
         entry["eye"] = self.report()
-        if self.out_dir and converged:  # the stress and the gap just measured are those drawn
-            self._draw(step)
-
-    def _draw(self, step: str) -> None:
-        """Collective: the section coloured by the stress and the retina's gap map of a step."""
-        label = re.sub(r"[^\w.-]+", "_", step)
-        stress_section_png(self.solid, self.mises, os.path.join(self.out_dir, f"section_{label}.png"),
-                           title=f"{self.scene}, step {step}: von Mises stress (MPa)")
-        X, gap = self.retina_gap_map()
-        if X is not None:
-            retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
-                           os.path.join(self.out_dir, f"retina_gap_{label}.png"), DETACHED_GAP,
-                           title=f"{self.scene}, step {step}: the detached retina")
-
-    def finish(self, summary: dict) -> None:
-        if self.out_dir and self.solid.comm.rank == 0:
-            eye_measures_png(summary["steps"], os.path.join(self.out_dir, "eye_measures.png"))

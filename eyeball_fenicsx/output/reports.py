@@ -1,17 +1,26 @@
 """What a step's entry of summary.json holds besides the increments: the displacement at the
 probes, the reactions of the active supports and every feature's report.
 
-Data path: after each step, ``Probes`` reads the solid's displacement at material points and
+Data path: when the scene is built, ``Probes`` finds the cell of each point (a point outside
+the mesh is an error of the scene); after each step it reads the solid's displacement there, and
 ``FeatureReports`` assembles the residual of the problem without its Dirichlet rows once, sums
 it over each active constraint's dofs (the reaction, as the support holds the solid) and asks
 every feature for its report, in the scene's order (observers: output/observer.py).
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 from dolfinx import geometry
 from mpi4py import MPI
 
 from ..errors import SceneError
 from .observer import Observer
+
+if TYPE_CHECKING:
+    from ..mechanics.solid import MixedSolid
+    from ..system.problem import Problem
 
 
 class Probes(Observer):
@@ -20,10 +29,11 @@ class Probes(Observer):
     The lowest rank whose owned cells hold a point evaluates the displacement there and
     broadcasts it."""
 
-    def __init__(self, points: dict[str, list[float]]):
+    def __init__(self, points: dict[str, list[float]]) -> None:
         self.points = points
 
-    def start(self, scene: str, solid, problem, out_dir: str | None) -> None:
+    def setup(self, solid: MixedSolid, problem: Problem) -> None:
+        """Find the owned cell and the owning rank of each point (collective)."""
         self.solid = solid
         msh = solid.mesh_data.mesh
         tree = geometry.BoundingBoxTree(msh, msh.topology.dim)
@@ -56,7 +66,7 @@ class FeatureReports(Observer):
     """The reactions of the active constraints under "reactions", and each feature's report:
     under its ``section`` and ``name``, or merged into its ``section`` if its name is None."""
 
-    def start(self, scene: str, solid, problem, out_dir: str | None) -> None:
+    def setup(self, solid: MixedSolid, problem: Problem) -> None:
         self.problem = problem
 
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:

@@ -14,6 +14,7 @@ from ..features.band import BandTightening
 from ..features.cavity import Drainage, Injection, LiquidCavity
 from ..features.sutures import Suture
 from ..meshing.builders.buckled_eye import suture_points
+from ..output.eye_pictures import EyePictures
 from ..output.measures import EyeMeasures
 from .tables import Reading, Table
 
@@ -129,7 +130,8 @@ def read_buckle_sutures(reading: Reading) -> None:
 
 
 def read_eye(reading: Reading) -> None:
-    """``[eye]``: the eye measures, an observer of the scene (output/measures.py)."""
+    """``[eye]``: the eye measures and their pictures, observers of the scene
+    (output/measures.py, output/eye_pictures.py)."""
     if "eye" not in reading.data:
         return
     t = reading.table("eye", EYE_KEYS)
@@ -146,7 +148,8 @@ def read_eye(reading: Reading) -> None:
         surfaces["sclera"] = t.get("sclera", "string", "sclera_outer")
     points = t.get("anterior", "vector", [0.0, 0.0, 1e3]), t.get("posterior", "vector", [0.0, 0.0, -1e3])
     with t.located():  # the measures' own checks: retina and choroid together
-        reading.observers.append(EyeMeasures(*points, vitreous=reading.cavities.get(vitreous), **ends, **surfaces))
+        measures = EyeMeasures(*points, vitreous=reading.cavities.get(vitreous), **ends, **surfaces)
+    reading.observers += [measures, EyePictures(measures)]
     reading.use(t, [*ends.values(), *surfaces.values()])
 
 

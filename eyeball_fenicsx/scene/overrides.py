@@ -17,10 +17,10 @@ def set_parameter(data: dict, path: str, value: Any) -> None:
         try:
             node = node[int(key)] if isinstance(node, list) else node[key]
         except (KeyError, IndexError, ValueError):
-            raise SceneError(f"sweep: parameter {path!r} is not in the scene (no {key!r})") from None
+            raise SceneError(f"parameter {path!r} is not in the scene (no {key!r})") from None
     if isinstance(node, list):
-        raise SceneError(f"sweep: parameter {path!r} names a whole array, not a value")
+        raise SceneError(f"parameter {path!r} names a whole array, not a value")
     if last not in node:
-        raise SceneError(f"sweep: parameter {path!r} is not in the scene (no {last!r}); "
+        raise SceneError(f"parameter {path!r} is not in the scene (no {last!r}); "
                          f"that table has {sorted(node)}")
     node[last] = value

@@ -14,13 +14,16 @@ exactly the bare hyperelastic system.
 
 Data path of a run: scene -> problem -> Newton per step -> observers -> outputs. ``build``
 makes the solid (mechanics/solid.py) and the problem, the solid plus the scene's features
-(system/problem.py). ``run`` advances each step of the load path with Newton
-(system/stepping.py, system/newton.py); after each step, converged or failed, the observers
-read the state (output/observer.py): the probes and the features' reports (output/reports.py),
-then the scene's ``observers`` (the eye measures of a scene file's ``[eye]`` table, which also
-draw its pictures: output/measures.py), then the field output (output/files.py). They fill the
-step's entry of summary.json, which is written after every step and at the end. Each load
-increment is logged (output/console.py prints it on rank 0).
+(system/problem.py), then sets up the observers (output/observer.py): they find what they
+observe (a probe outside the mesh is an error here) and build their forms, once. ``run``
+advances each step of the load path with Newton (system/stepping.py, system/newton.py); after
+each step, converged or failed, the observers read the state: the probes, the reactions and the
+features' reports (output/reports.py), then the scene's ``observers`` (the eye measures of a
+scene file's ``[eye]`` table and their pictures: output/measures.py, output/eye_pictures.py),
+then the field output of a run with an output folder (output/files.py). They fill the step's
+entry of summary.json, which is written after every step and at the end. A second ``run``
+starts from the state the first left, with the observers ``build`` set up. Each load increment
+is logged (output/console.py prints it on rank 0).
 """
 from __future__ import annotations
 
@@ -35,7 +38,8 @@ from ..output.files import FieldOutput, write_json_atomic
 from ..output.reports import FeatureReports, Probes
 from ..system.newton import NewtonSolver
 from ..system.problem import Problem
-from ..system.stepping import SolverSettings, run_step
+from ..system.settings import SolverSettings
+from ..system.stepping import run_step
 
 if TYPE_CHECKING:
     from ..meshing.load import MeshData
@@ -63,7 +67,8 @@ class Scene:
         steps: the load path.
         solver: the load stepping's settings.
         element: the mixed element, a name of ``mechanics.solid.ELEMENTS`` (None: by cell type).
-        observers: what else reads the state after each step (``EyeMeasures``).
+        observers: what else reads the state after each step (``EyeMeasures``, then its
+            ``EyePictures``), in this order; set up by ``build``, so give them before it.
     """
 
     name: str
@@ -83,10 +88,14 @@ class Scene:
                                  f"but the scene has {len(self.steps)} step(s)")
 
     def build(self) -> Scene:
-        """Create the solid, the Newton problem and the solver (compiles the forms)."""
+        """Create the solid, the Newton problem and the solver (compiles the forms), and set up
+        the observers: the probes, the reports and the scene's ``observers``."""
         self.solid = MixedSolid(self.mesh, self.materials, self.element)
         self.problem = Problem(self.solid, self.features)
         self.newton = NewtonSolver(self.problem)
+        self.reports = [Probes(self.probes), FeatureReports()]
+        for observer in [*self.reports, *self.observers]:
+            observer.setup(self.solid, self.problem)
         return self
 
     def run(self, out_dir: str | None = None) -> dict:
@@ -100,9 +109,9 @@ class Scene:
         if not hasattr(self, "problem"):
             self.build()
         summary = self._summary()
-        observers = [Probes(self.probes), FeatureReports(), *self.observers, *([FieldOutput()] if out_dir else [])]
+        observers = [*self.reports, *self.observers, *self._field_output(out_dir)]
         for observer in observers:
-            observer.start(self.name, self.solid, self.problem, out_dir)
+            observer.start(self.name, out_dir)
         try:
             for index, step in enumerate(self.steps):
                 self._run_step(index, step, summary, observers)
@@ -116,6 +125,14 @@ class Scene:
             if out_dir:
                 write_json_atomic(f"{out_dir}/summary.json", summary, self.solid.comm)
         return summary
+
+    def _field_output(self, out_dir: str | None) -> list[FieldOutput]:
+        """A run's field output, set up for it, if the run writes files."""
+        if not out_dir:
+            return []
+        fields = FieldOutput()
+        fields.setup(self.solid, self.problem)
+        return [fields]
 
     def _summary(self) -> dict:
         """The head of summary.json: the scene, its size, and no step yet."""

@@ -14,7 +14,7 @@ from ..features.loads import Dirichlet, NodalForce, Pressure
 from ..mechanics.materials import LinearElastic, MooneyRivlin, NeoHooke
 from ..meshing.builders import band, block, buckled_eye, eye, sphere_octant
 from ..meshing.load import MeshData, built_mesh, load_mesh
-from ..system.stepping import SolverSettings
+from ..system.settings import SolverSettings
 from .scene import Step
 from .tables import Reading, Table
 from .tissues import tissue_set

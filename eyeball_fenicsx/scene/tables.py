@@ -21,7 +21,7 @@ from ..errors import SceneError
 from ..features.base import Feature
 from ..features.cavity import LiquidCavity
 from ..meshing.load import MeshData
-from ..system.stepping import SolverSettings
+from ..system.settings import SolverSettings
 from .scene import Step
 
 # Table.get's kinds of value: each a check of eyeball_fenicsx/checks.py

@@ -6,14 +6,14 @@ Our defaults are set only where the user gave nothing.
 
 The numeric factorization is almost all of the cost of a Newton iteration
 (``benchmarks/sphere_scaling.py``), so the solver spends as few as it can, without changing
-the converged answer (the residual tolerances decide it, as before):
+the converged answer (the residual tolerances decide it):
 
 * symmetric tangent -> MUMPS LDL^T (``pc_type cholesky``): half the flops of LU. Used when every
   feature with hand-assembled terms declares ``symmetric_tangent = True``
   (``Problem.symmetric_tangent``) and the assembled matrix is symmetric to round-off, checked at
   the first Jacobian of every increment (a follower pressure on a surface with free edges is not);
 * factorization reuse (chord steps): after a Newton step that cut the residual by at least
-  ``stepping.SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
+  ``settings.SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
   assembling and factorizing a new tangent; a reused step that contracts less ends the reuse.
   A chord step converges linearly, so it would stop just below the tolerance, where Newton's
   quadratic last step lands far below it: after a reused factorization, convergence needs a
@@ -49,9 +49,8 @@ import contextlib
 import numpy as np
 from petsc4py import PETSc
 
-from ..contact.policy import NEWTON_OPTIONS
 from .problem import Problem
-from .stepping import SolverSettings
+from .settings import SolverSettings
 
 PREFIX = "eye_"
 DEFAULT_OPTIONS = {
@@ -82,9 +81,7 @@ class NewtonSolver:
         self.problem = problem
         opts = PETSc.Options()
         defaults = dict(DEFAULT_OPTIONS)
-        self.limits_steps = problem.limits_steps
-        if self.limits_steps:  # contact's onset limit shortens the steps (``contact/policy.py``)
-            defaults.update(NEWTON_OPTIONS)
+        defaults.update(problem.newton_options)  # an active set's own (contact: ``contact/policy.py``)
         self.prefix, self.defaults = prefix, defaults
         self.choose_factorization = not opts.hasName(prefix + "pc_type")  # else the user's
         self.divergence = PETSc.Options(prefix).getReal("snes_divergence_tolerance", 1e4)
@@ -160,7 +157,7 @@ class NewtonSolver:
         (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
         however short is not taken: y is zeroed and the solve ends as "inverting step"."""
         fraction = 1.0
-        if self.limits_steps:
+        if self.problem.limits_steps:
             self.problem.vector_to_state(x)
             fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
             if fraction < 1.0:

@@ -24,7 +24,7 @@ liquid law: a volume).
 The features are sorted once, when the problem is built, by the roles they play
 (``features/roles.py``), into lists in scene order; each callback loops over the lists it
 needs, in that order, so the terms are summed as the scene lists them. The nodal roles
-(``custom``: residual by global index; ``custom_tangents``: tangent by global index) cost what
+(``nodal_residuals``: residual by global index; ``nodal_tangents``: tangent by global index) cost what
 they need only when a scene holds them: without them the residual's Dirichlet rows are set in
 place as DOLFINx does, and the matrix may not grow beyond its preallocation.
 """
@@ -48,6 +48,7 @@ from ..features.roles import (
     NodalResidual,
     NodalTangent,
     StateDependent,
+    check_whole_role,
 )
 from ..mechanics.solid import JacobianGuard, MixedSolid
 
@@ -67,7 +68,7 @@ class Problem:
             residual = residual + f.residual(solid)
         self.R_form = fem.form(residual)
         self.J_form = fem.form(ufl.derivative(residual, solid.w, ufl.TrialFunction(solid.W)))
-        self.m = sum(f.num_unknowns for f in self.bordered)
+        self.m = sum(f.num_unknowns for f in self.global_unknowns)
 
         index_map = solid.W.dofmap.index_map
         self.n_owned = index_map.size_local
@@ -81,7 +82,7 @@ class Problem:
         self.lgmap = PETSc.LGMap().create(local_to_global, comm=comm)
 
         self.b_w = fem.petsc.create_vector(self.R_form)
-        self.scratch = self.b_w.duplicate() if self.custom else None  # see F
+        self.scratch = self.b_w.duplicate() if self.nodal_residuals else None  # see F
         self.A = self._create_matrix()
         self.x, self.b = self.A.createVecs()
         self.guard = JacobianGuard(solid)
@@ -91,14 +92,18 @@ class Problem:
 
     def _sort_by_role(self):
         """The features of each role (``features/roles.py``), in scene order: the one place that
-        asks what a feature is (after ``setup``, which may create what a role needs)."""
+        asks what a feature is (after ``setup``, which may create what a role needs). A feature
+        that defines some of a role's methods but lacks a member of it is an error, not a
+        feature silently left out of the role."""
         def playing(role):
+            for f in self.features:
+                check_whole_role(f, role)
             return [f for f in self.features if isinstance(f, role)]
         self.form_terms = playing(FormTerm)
         self.constraints = playing(Constraint)  # the features that impose Dirichlet conditions
-        self.custom = playing(NodalResidual)
-        self.custom_tangents = playing(NodalTangent)
-        self.bordered = playing(GlobalUnknowns)
+        self.nodal_residuals = playing(NodalResidual)
+        self.nodal_tangents = playing(NodalTangent)
+        self.global_unknowns = playing(GlobalUnknowns)
         self.state_dependent = playing(StateDependent)
         self.active_sets = playing(ActiveSet)
 
@@ -108,10 +113,15 @@ class Problem:
         return bool(self.active_sets)
 
     @property
+    def newton_options(self) -> dict:
+        """The PETSc options the active sets ask of Newton (merged in scene order)."""
+        return {key: value for f in self.active_sets for key, value in f.newton_options.items()}
+
+    @property
     def symmetric_tangent(self) -> bool:
         """Whether every hand-assembled part of the tangent is declared symmetric (the UFL part
         is checked numerically by the solver)."""
-        return all(f.symmetric_tangent for f in self.custom_tangents + self.bordered)
+        return all(f.symmetric_tangent for f in self.nodal_tangents + self.global_unknowns)
 
     def _owned_rows(self, subspace):
         """Owned local indices in W (block size 1) of a subspace's dofs (collective: collapses it)."""
@@ -141,13 +151,13 @@ class Problem:
         size = (n + self.n_extra_local, self.n_global + m)
         A = PETSc.Mat().createAIJ((size, size), nnz=(d_nnz, o_nnz), comm=comm)
         A.setLGMap(self.lgmap, self.lgmap)
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, not self.custom_tangents)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, not self.nodal_tangents)
         A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         return A
 
     def _coupling(self):
         """Distinct extra (row, col) entries of the custom tangents, on the rows' owners."""
-        pairs = [f.coupling() for f in self.custom_tangents]
+        pairs = [f.coupling() for f in self.nodal_tangents]
         pairs = [np.column_stack(p).astype(np.int64) for p in pairs if p is not None]
         pairs = np.concatenate(pairs) if pairs else np.empty((0, 2), dtype=np.int64)
         ranges = np.array(self.comm.allgather(self.offset) + [self.n_global])
@@ -189,7 +199,7 @@ class Problem:
         blocks = [("force", self._displacement_rows[~prescribed]), ("prescribed", self._displacement_rows[prescribed]),
                   ("incompressibility", self._pressure_rows)]
         index = self.n_owned
-        for f in self.bordered:
+        for f in self.global_unknowns:
             for k in range(f.num_unknowns):
                 rows = np.array([index] if self.comm.rank == self.last else [], dtype=np.int32)
                 blocks.append((f.name if f.num_unknowns == 1 else f"{f.name} [{k}]", rows))
@@ -208,7 +218,7 @@ class Problem:
         x.array[self.n_owned:] = self.global_values()
 
     def global_values(self) -> np.ndarray:
-        values = np.concatenate([f.unknowns for f in self.bordered]) if self.bordered else np.empty(0)
+        values = np.concatenate([f.unknowns for f in self.global_unknowns]) if self.global_unknowns else np.empty(0)
         return values if self.comm.rank == self.last else np.empty(0)
 
     def vector_to_state(self, x: PETSc.Vec) -> None:
@@ -219,7 +229,7 @@ class Problem:
             values = self.comm.bcast(x.array_r[self.n_owned:].copy() if self.comm.rank == self.last else None,
                                      root=self.last)
             start = 0
-            for f in self.bordered:
+            for f in self.global_unknowns:
                 f.unknowns = values[start: start + f.num_unknowns]
                 start += f.num_unknowns
         for f in self.state_dependent:
@@ -247,10 +257,10 @@ class Problem:
             bl.set(0.0)
         assemble_vector(self.b_w, self.R_form)
         self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        if self.custom:  # contact, sutures and nodal forces act on constrained nodes too
+        if self.nodal_residuals:  # contact, sutures and nodal forces act on constrained nodes too
             b = self.b.duplicate()
             b.array[: self.n_owned] = self.b_w.array_r[: self.n_owned]
-            for f in self.custom:
+            for f in self.nodal_residuals:
                 f.add_to_residual(b)
             b.assemble()
             self.b_w.array[: self.n_owned] = b.array_r[: self.n_owned]
@@ -269,13 +279,13 @@ class Problem:
         assemble_vector(self.b_w, self.R_form)
         apply_lifting(self.b_w, [self.J_form], [self.bcs], x0=[self.solid.w.vector], scale=-1.0)
         self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        if not self.custom:  # Dirichlet rows: x - g, in place as in DOLFINx
+        if not self.nodal_residuals:  # Dirichlet rows: x - g, in place as in DOLFINx
             set_bc(self.b_w, self.bcs, self.solid.w.vector, -1.0)
         b.array[: self.n_owned] = self.b_w.array_r[: self.n_owned]
         b.array[self.n_owned:] = self._border_residuals()
-        if not self.custom:  # nothing was added by global index: no VecAssembly, no scratch vector
+        if not self.nodal_residuals:  # nothing was added by global index: no VecAssembly, no scratch vector
             return
-        for f in self.custom:
+        for f in self.nodal_residuals:
             f.add_to_residual(b)
         b.assemble()
         # Dirichlet rows: x - g, over whatever the custom features added to them
@@ -285,7 +295,7 @@ class Problem:
         b.array[self.bc_rows] = self.scratch.array_r[self.bc_rows]
 
     def _border_residuals(self):
-        values = [f.unknown_residuals() for f in self.bordered]
+        values = [f.unknown_residuals() for f in self.global_unknowns]
         if self.comm.rank != self.last or not values:
             return np.empty(0)
         return np.concatenate(values)
@@ -293,17 +303,17 @@ class Problem:
     def J(self, snes: PETSc.SNES | None, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         A.zeroEntries()
         assemble_matrix(A, self.J_form, self.bcs, diagonal=1.0)
-        if self.bordered or self.custom_tangents:
+        if self.global_unknowns or self.nodal_tangents:
             A.assemble(PETSc.Mat.AssemblyType.FLUSH)  # the BC diagonal was inserted, the rest adds
         index = self.n_global
-        for f in self.bordered:
+        for f in self.global_unknowns:
             for dofs, column, row, diagonal in f.border():
                 self._set_border(A, index, dofs, column, row, diagonal)
                 index += 1
-        for f in self.custom_tangents:
+        for f in self.nodal_tangents:
             f.add_to_jacobian(A)
         A.assemble()
-        if self.custom_tangents:
+        if self.nodal_tangents:
             A.zeroRows(self.lgmap.apply(self.bc_rows), diag=1.0)
 
     def _set_border(self, A, index, dofs, column, row, diagonal):

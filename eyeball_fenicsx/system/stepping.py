@@ -13,52 +13,28 @@
 * A failed increment is halved, at most ``max_cutbacks`` times; then the run ends with a
   ``ConvergenceError`` that keeps the converged increments.
 
+The settings named here are the fields of ``SolverSettings`` (system/settings.py).
+
 Data path: ``run_step`` sets the features' load factors on the problem (system/problem.py),
 predicts, calls Newton (system/newton.py) per increment and returns the converged increments to
 the scene, whose observers then read the state. Each increment's line is logged at INFO on this
 module's logger (``logging.getLogger(__name__)``; output/console.py prints it on rank 0).
 """
+from __future__ import annotations
+
 import dataclasses
 import logging
 import time
 
 import numpy as np
+from petsc4py import PETSc
 
-from .. import checks
-from ..errors import ConvergenceError, SceneError
+from ..errors import ConvergenceError
+from .newton import NewtonSolver
+from .problem import Problem
+from .settings import SolverSettings
 
 log = logging.getLogger(__name__)
-
-
-@dataclasses.dataclass
-class SolverSettings:
-    """Load stepping of each step of the load path.
-
-    Args:
-        increments: initial number of equal load increments of a step.
-        max_cutbacks: the smallest increment is the initial one halved this many times;
-            an increment that fails at that size ends the run.
-        growth: the largest factor by which an increment grows after a converged one; it
-            shrinks by at most its inverse (1: equal increments, cut back only where one fails).
-        easy_iterations: the target of the step-size rule: the next increment is this increment
-            times easy_iterations / (tangents it factorized), within [1 / growth, growth] (with
-            factorization reuse, the cheap chord steps do not count).
-        predictor: extrapolate the previous increment to start Newton (secant predictor).
-        reuse_contraction: reuse the factorization for the next Newton step after a step that
-            multiplied the residual norm by at most this factor (0: a new tangent every step).
-    """
-
-    increments: int = 2
-    max_cutbacks: int = 10
-    growth: float = 2.0
-    easy_iterations: int = 5
-    predictor: bool = True
-    reuse_contraction: float = 0.1
-
-    def __post_init__(self) -> None:
-        checks.integer(self.increments, "solver.increments")
-        if checks.number(self.growth, "solver.growth") < 1:
-            raise SceneError(f"solver.growth must be at least 1 (1: equal increments), got {self.growth!r}")
 
 
 def ramp(feature_step: int, step_index: int, t: float) -> float:
@@ -82,7 +58,18 @@ class Increment:
     factorizations: int  # new tangents factorized; the other iterations reused one
 
 
-def run_step(problem, newton, settings: SolverSettings, step_index: int, step_name: str,
+@dataclasses.dataclass
+class FailedIncrement:
+    """An increment Newton did not converge: in step ``step_name``, from the converged load
+    factor ``t`` by ``dt``, for Newton's ``reason``."""
+
+    step_name: str
+    t: float
+    dt: float
+    reason: str
+
+
+def run_step(problem: Problem, newton: NewtonSolver, settings: SolverSettings, step_index: int, step_name: str,
              increments: int) -> list[Increment]:
     """Advance one step of the load path from t = 0 to 1 with adaptive increments.
 
@@ -117,27 +104,30 @@ def run_step(problem, newton, settings: SolverSettings, step_index: int, step_na
             use_predictor = settings.predictor
             dt = max(dt * next_increment_factor(increment.factorizations, settings), smallest)
             continue
-        _restore_or_give_up(problem, newton, settings, x, x_old, (step_name, t, dt, reason), smallest, done)
+        _restore_or_give_up(problem, newton, settings, x, x_old, FailedIncrement(step_name, t, dt, reason), smallest,
+                            done)
         dt /= 2
         use_predictor = False
     problem.set_load_factor([ramp(f.step, step_index, 1.0) for f in problem.features])
     return done
 
 
-def _predict(problem, newton, x, x_old, x_prev, scale: float) -> None:
+def _predict(problem: Problem, newton: NewtonSolver, x: PETSc.Vec, x_old: PETSc.Vec, x_prev: PETSc.Vec,
+             scale: float) -> None:
     """Secant predictor: x = x_old + scale (x_old - x_prev), the step shortened where it would
     close a contact gap too far (``step_fraction``) and dropped where it would still invert an
     element."""
     step = x_prev - x_old  # the secant, as the step x_old -> x_old - step
     step.scale(scale)
-    if newton.limits_steps:
+    if problem.limits_steps:
         problem.F(None, x_old, problem.b)
         step.scale(problem.step_fraction(-step.array_r, problem.b.array_r))
     if newton.shorten_while_inverting(x_old, step) is not None:
         x.axpy(-1.0, step)
 
 
-def _solve_increment(problem, newton, x, load_factor: float) -> tuple[bool, Increment, str]:
+def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
+                     load_factor: float) -> tuple[bool, Increment, str]:
     """Newton on the increment ending at ``load_factor``, then again while a feature augments
     (the augmented Lagrangian of contact), from the last factorization. Returns (converged,
     the increment's ``Increment``, Newton's reason)."""
@@ -152,23 +142,22 @@ def _solve_increment(problem, newton, x, load_factor: float) -> tuple[bool, Incr
     return converged, Increment(load_factor, its, norm, wall, factorized), reason
 
 
-def _restore_or_give_up(problem, newton, settings: SolverSettings, x, x_old, failure: tuple, smallest: float,
-                        done: list[Increment]) -> None:
+def _restore_or_give_up(problem: Problem, newton: NewtonSolver, settings: SolverSettings, x: PETSc.Vec,
+                        x_old: PETSc.Vec, failure: FailedIncrement, smallest: float, done: list[Increment]) -> None:
     """After a failed increment: back to the last converged state x_old, and a
-    ``ConvergenceError`` if the increment was already the smallest (``failure``: the step's
-    name, its converged load factor t, the increment dt and Newton's reason)."""
-    step_name, t, dt, reason = failure
+    ``ConvergenceError`` if the increment was already the smallest."""
     x_old.copy(x)
     problem.vector_to_state(x)
     where = ""
     if problem.inverted is not None:
         where = (f"; an element inverted (det F = {problem.inverted[0]:.3g}) near "
                  f"{np.round(problem.inverted[1], 4).tolist()}")
-    log.info("step %s: load factor %.4f failed (%s%s); cutting the increment back", step_name, t + dt, reason, where)
-    if dt <= smallest * (1 + 1e-9):
+    log.info("step %s: load factor %.4f failed (%s%s); cutting the increment back", failure.step_name,
+             failure.t + failure.dt, failure.reason, where)
+    if failure.dt <= smallest * (1 + 1e-9):
         error = ConvergenceError(
-            f"step {step_name!r} did not converge beyond load factor {t:.4g}, even with the increment "
-            f"cut back {settings.max_cutbacks} times (last try: {reason}{where}); use more increments, check the "
-            f"loads and supports, or pass -{newton.prefix}snes_monitor to see the Newton iterations")
+            f"step {failure.step_name!r} did not converge beyond load factor {failure.t:.4g}, even with the increment "
+            f"cut back {settings.max_cutbacks} times (last try: {failure.reason}{where}); use more increments, check "
+            f"the loads and supports, or pass -{newton.prefix}snes_monitor to see the Newton iterations")
         error.increments = done
         raise error
