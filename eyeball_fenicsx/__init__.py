@@ -7,7 +7,7 @@ import importlib
 
 _PUBLIC = {
     "ContactPair": "contact", "RigidContact": "contact",
-    "ConvergenceError": "errors", "SceneError": "errors",
+    "ConvergenceError": "errors", "Interrupted": "errors", "SceneError": "errors",
     "Dirichlet": "features.loads", "NodalForce": "features.loads", "Pressure": "features.loads",
     "LiquidCavity": "features.cavity", "Injection": "features.cavity", "Drainage": "features.cavity",
     "Suture": "features.sutures", "BandTightening": "features.band",

@@ -1,10 +1,13 @@
-"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [PETSc options]``.
+"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [--resume] [PETSc options]``.
 
-Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid;
-3 a step did not converge after the automatic cut-backs. Errors are one line on stderr.
-Options after the scene that argparse does not know (``-eye_snes_monitor``...) go to PETSc.
-The load increments are printed on stdout by rank 0 (output/console.py); stderr carries the
-warnings and the error.
+Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid (or a
+command-line option is unknown, or the checkpoint to resume is damaged or another scene's);
+3 a step did not converge after the automatic cut-backs; 4 a signal (SIGTERM, SIGINT, SIGUSR1)
+stopped the run at a safe point, with the last converged state kept (``--resume`` continues it).
+Errors are one line on stderr. Options after the scene that start with one dash
+(``-eye_snes_monitor``...) go to PETSc; an option with two dashes that is not the command's own
+is an error, never handed to PETSc. The load increments are printed on stdout by rank 0
+(output/console.py); stderr carries the warnings and the error.
 """
 import argparse
 import logging
@@ -13,16 +16,21 @@ import sys
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .errors import ConvergenceError, SceneError
+from .errors import ConvergenceError, Interrupted, SceneError
 from .output.console import print_on_rank0
+
+INTERRUPTED = 4  # the exit code of a run a signal stopped
 
 
 def _petsc_options(tokens: list[str]) -> None:
-    """Put ``-key [value]`` tokens into the PETSc options database."""
+    """Put ``-key [value]`` tokens into the PETSc options database; a ``--option`` is not one."""
     opts = PETSc.Options()
     i = 0
     while i < len(tokens):
         token = tokens[i]
+        if token.startswith("--"):
+            raise SceneError(f"unknown option {token.split('=')[0]!r} (see --help; PETSc options take one dash: "
+                             "-eye_snes_monitor)")
         if not token.startswith("-"):
             raise SceneError(f"unexpected argument {token!r}: PETSc options start with '-'")
         value = ""
@@ -45,36 +53,47 @@ def _fail(code: int, message: object) -> int:
     return code
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="eyeball-fenicsx", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     run = commands.add_parser("run", help="run a scene TOML file")
     run.add_argument("scene")
-    run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf)")
+    run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf, checkpoint/)")
+    run.add_argument("--resume", action="store_true", help="continue from the checkpoint in the output folder")
     sweep = commands.add_parser("sweep", help="run a scene over values of one parameter (CSV + PNG)")
     sweep.add_argument("scene")
     sweep.add_argument("--parameter", required=True, help="dotted path into the scene, e.g. band.0.reduction")
     sweep.add_argument("--values", required=True, nargs="+", type=float)
     sweep.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.png, one folder a run)")
-    args, petsc = parser.parse_known_args(argv)
+    sweep.add_argument("--resume", action="store_true", help="skip the runs that are done, resume the one that "
+                       "was stopped")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, petsc = _parser().parse_known_args(argv)
     logging.getLogger().addFilter(_warnings_only)
     print_on_rank0()  # the load increments, on stdout (rank 0)
     try:
         _petsc_options(petsc)
         if args.command == "sweep":
             from .scene.sweep import run_sweep
-            run_sweep(args.scene, args.parameter, args.values, args.out)
+            run_sweep(args.scene, args.parameter, args.values, args.out, resume=args.resume)
             return 0
         from .scene.loader import load_scene
         scene = load_scene(args.scene)
         try:
-            scene.run(args.out)
-        except SceneError as error:  # found while building (probes, cavities): say which file
+            scene.run(args.out, resume=args.resume)
+        except SceneError as error:  # found while building (probes, cavities) or resuming: say which file
             raise SceneError(f"{args.scene}: {error}") from None
     except SceneError as error:
         return _fail(2, error)
     except ConvergenceError as error:
         return _fail(3, error)
+    except Interrupted as error:
+        return _fail(INTERRUPTED, error)
+    except KeyboardInterrupt:  # Ctrl-C before the run began: nothing was written
+        return _fail(INTERRUPTED, "interrupted before the first step")
     return 0
 
 

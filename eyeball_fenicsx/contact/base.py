@@ -45,6 +45,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..errors import SceneError
 from ..features.base import Feature
 from .law import pressure
 from .policy import (
@@ -265,6 +266,19 @@ class ContactFeature(Feature):
             f_hi, hi = np.where(below, f, 0.5 * f_hi), np.where(below, trial, hi)  # end that stays
         return self.solid.comm.allreduce(np.min(hi[closing], initial=1.0), op=MPI.MIN)
 
+    # -- a checkpoint (output/checkpoint.py) ----------------------------------------------
+    def checkpoint_state(self) -> dict:
+        """The nodal multipliers in force and the update the next increment takes (None: none), as
+        dof arrays, and the augmentations so far."""
+        return {"node_multiplier": self.node_multiplier, "pending": self._pending,
+                "augmentations": int(self.augmentations)}
+
+    def restore_state(self, state: dict) -> None:
+        self.node_multiplier = np.array(state["node_multiplier"])
+        self._pending = None if state["pending"] is None else np.array(state["pending"])
+        self.augmentations = state["augmentations"]
+        self._selection = None
+
     # -- output --------------------------------------------------------------------------
     def point_pressures(self) -> tuple[np.ndarray, np.ndarray]:
         """Reference coordinates (n, 3) of this rank's points and their contact pressure (n,)."""
@@ -297,6 +311,11 @@ class ContactFeature(Feature):
                 "augmentations": int(self.augmentations)}
 
     def _setup_common(self, solid):
+        size = solid.comm.allreduce(float(np.max(self.thickness, initial=0.0)), op=MPI.MAX)
+        if self.smoothing >= size:  # the smoothed law would press at gaps of up to ACTIVE_RANGE sizes
+            raise SceneError(f"contact {self.name!r}: smoothing {self.smoothing:g} mm is not below the size of the "
+                             f"elements at its slave surface ({size:.3g} mm): the smoothed law would push the "
+                             "surfaces apart before they touch; give a small fraction of it, or none")
         self.solid = solid
         self._work = fem.Function(solid.W)
         self.node_multiplier = np.zeros(len(self._work.x.array))

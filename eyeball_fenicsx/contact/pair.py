@@ -12,6 +12,12 @@ smallest reference centroid (lexicographic), a rule that does not depend on the 
 A point farther inside than the element under the segment is on its far side, not in
 contact. Nothing is remembered between evaluations.
 
+The matrix has room for every (slave facet, segment) pair a search finds; it is preallocated
+anew when a search finds a pair it has no room for, and at the first increment of every step,
+so that a step's arithmetic depends on the state it starts from only: a step resumed from a
+checkpoint (output/checkpoint.py, which keeps the displacement of the last search and its
+motion) repeats the interrupted run's to the bit.
+
 Parallel: the master surface (segments as global node numbers, reference coordinates, and
 the displacements of its nodes at every state) is gathered on every rank; each rank owns the
 slave facets of its cells. Forces go to global rows; rows of nodes owned elsewhere reach
@@ -112,7 +118,7 @@ class ContactPair(ContactFeature):
         x = self.master_X[self.segments]
         self.segment_size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))
         self.centroid = x.mean(axis=1)
-        self._unreserved = True
+        self._unreserved, self._new_step = True, False
         self.motion, self.pattern_keys = 0.0, None
         self._last = (self._slave_points(), self.master_positions())
         self._search()
@@ -145,6 +151,17 @@ class ContactPair(ContactFeature):
     def _positions(self):
         return self._slave_points(), self.master_positions()
 
+    def checkpoint_state(self) -> dict:
+        """The base's state, the displacement the last search saw (a dof array) and its motion:
+        the next search's reach."""
+        return {**super().checkpoint_state(), "searched": self._searched, "motion": float(self.motion)}
+
+    def restore_state(self, state: dict) -> None:
+        super().restore_state(state)
+        self._searched, self.motion = state["searched"], state["motion"]
+        self._last = (self._slave_points(self._facet_nodes(self._searched)),
+                      self.master_X + self._gather_master(self._searched))
+
     # -- search and selection ------------------------------------------------------------
     def _search(self):
         """Candidate segments of each point, from the current positions."""
@@ -152,7 +169,7 @@ class ContactPair(ContactFeature):
         xs, xm = self._slave_points(), self.master_positions()
         moved = max(np.abs(xs - self._last[0]).max(initial=0.0), np.abs(xm - self._last[1]).max(initial=0.0))
         self.motion = self.solid.comm.allreduce(moved, op=MPI.MAX) or self.motion
-        self._last = (xs, xm)
+        self._last, self._searched = (xs, xm), self.solid.w.x.array.copy()
         x = xm[self.segments]
         reach = (SEARCH_FACTOR * self.segment_size + 2.0 * self.motion)[:, None]
         point, seg = candidate_pairs(xs, x.min(axis=1) - reach, x.max(axis=1) + reach)
@@ -240,13 +257,17 @@ class ContactPair(ContactFeature):
             A.setValuesRCV(rows, rows, zeros, addv=PETSc.InsertMode.ADD_VALUES)
         self._unreserved = False
 
+    def begin_step(self, step_index: int) -> None:
+        super().begin_step(step_index)
+        self._new_step = True  # its first increment preallocates the matrix anew (module docstring)
+
     def begin_increment(self) -> bool:
         self._search()
         self._unreserved = True
         keys = self._keys()
-        if np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
+        if not self._new_step and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
             return False
-        self.pattern_keys = keys
+        self.pattern_keys, self._new_step = keys, False
         return True
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray]:

@@ -273,6 +273,19 @@ class LiquidCavity(Feature):
             result["drained_volume"] = float(-self.drainage.factor * self.drainage_volume)
         return result
 
+    # what the liquid law carries from step to step; a checkpoint's (output/checkpoint.py), with
+    # the pressure unknown that the checkpoint keeps with the solution
+    _carried = ("filling", "V_ref", "initial_liquid", "filled_volume", "p_base", "injected_base", "drainage_volume",
+                "break_open", "step_index")
+
+    def checkpoint_state(self) -> dict:
+        return {name: getattr(self, name) for name in self._carried}
+
+    def restore_state(self, state: dict) -> None:
+        vars(self).update({name: state[name] for name in self._carried})
+        if self.host is not None:  # the break's switch in the forms
+            self.open.value = float(self.break_open)
+
 
 class BorderedCavity(LiquidCavity):
     """The seed's new algorithm: the liquid's pressure is a global unknown that borders the

@@ -51,6 +51,7 @@ class Dirichlet(Feature):
             self._bcs.append(fem.dirichletbc(g, dofs, Wi))
             self._values.append((i, g, dofs))
         self.active = False
+        self._start = None  # per component, the values the ramp starts from (set in its step)
 
     def begin_step(self, step_index: int) -> None:
         self.active = step_index >= self.step
@@ -69,6 +70,22 @@ class Dirichlet(Feature):
 
     def dirichlet_bcs(self) -> list:
         return self._bcs if self.active else []
+
+    # -- a checkpoint (output/checkpoint.py) ----------------------------------------------
+    def checkpoint_state(self) -> dict:
+        """The values the ramp started from, as a dof array of the mixed space (None before the
+        step): held after the step, the prescribed values are start + 1 * (target - start), which
+        a resumed run must compute from the same start to the bit."""
+        if self._start is None:
+            return {"start": None}
+        start = np.zeros(len(self.solid.w.x.array))
+        for i, _, (in_W, _) in self._values:
+            start[in_W] = self._start[i]
+        return {"start": start}
+
+    def restore_state(self, state: dict) -> None:
+        if state["start"] is not None:
+            self._start = {i: state["start"][in_W].copy() for i, _, (in_W, _) in self._values}
 
     def reaction(self, residual_array: np.ndarray) -> list[float]:
         """Total reaction force on the surface from the unconstrained residual (local array):

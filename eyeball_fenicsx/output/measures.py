@@ -283,6 +283,14 @@ class EyeMeasures(Observer):
             result.update(measure())
         return result
 
+    # -- a checkpoint (output/checkpoint.py) ---------------------------------------------------
+    def checkpoint_state(self) -> dict:
+        """The pre-operative length (None until its step is done) and the last step measured."""
+        return {"preoperative_length": self.preoperative_length, "step_index": self.step_index}
+
+    def restore_state(self, state: dict) -> None:
+        self.preoperative_length, self.step_index = state["preoperative_length"], state["step_index"]
+
     # -- observing the runs (output/observer.py) ----------------------------------------------
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
         self.step_index = index

@@ -12,6 +12,7 @@ from mpi4py import MPI
 from ..errors import SceneError
 from ..features.loads import Dirichlet, NodalForce, Pressure
 from ..mechanics.materials import LinearElastic, MooneyRivlin, NeoHooke
+from ..mechanics.solid import ELEMENTS
 from ..meshing.builders import band, block, buckled_eye, eye, sphere_octant
 from ..meshing.load import MeshData, built_mesh, load_mesh
 from ..system.settings import SolverSettings
@@ -21,6 +22,7 @@ from .tissues import tissue_set
 
 BUILDERS = {"block": block.build_block, "sphere_octant": sphere_octant.build_sphere_octant,
             "eye": eye.build_eye, "band": band.build_band, "buckled_eye": buckled_eye.build_buckled_eye}
+CELLS = {"Q": "hexahedra", "P": "tetrahedra"}  # the cells of an element, by its name's first letter
 
 
 def read_name(reading: Reading) -> None:
@@ -30,6 +32,9 @@ def read_name(reading: Reading) -> None:
 
 def read_step(reading: Reading) -> None:
     """``[[step]]`` (``name``, ``increments``): the load path (default: one step "load")."""
+    if reading.data.get("step") == []:
+        raise SceneError(f"{reading.path}: step = [] gives no step: give [[step]] tables, or none for one step "
+                         "'load'")
     reading.steps = [Step(t.get("name", "string", required=True), t.get("increments", "integer"))
                      for t in reading.array("step", {"name", "increments"})] or [Step("load")]
     names = [step.name for step in reading.steps]
@@ -129,8 +134,11 @@ def read_solver(reading: Reading) -> None:
     t = reading.table("solver", {"increments", "max_cutbacks", "growth", "predictor", "element"})
     given = {key: t.get(key, kind) for key, kind in
              (("increments", "integer"), ("max_cutbacks", "integer"), ("growth", "positive"), ("predictor", "flag"))}
-    reading.settings = SolverSettings(**{key: value for key, value in given.items() if value is not None})
+    with t.located():  # the settings' own checks: growth >= 1
+        reading.settings = SolverSettings(**{key: value for key, value in given.items() if value is not None})
     reading.element = t.get("element", "string")
+    if reading.element is not None and reading.element not in ELEMENTS:
+        raise t.error(f"unknown element {reading.element!r}: choose one of {sorted(ELEMENTS)}")
 
 
 def read_mesh(reading: Reading) -> None:
@@ -138,9 +146,17 @@ def read_mesh(reading: Reading) -> None:
     mesh is built here, the last table read: once every other table has been checked."""
     mesh = reading.data.get("mesh")
     if not isinstance(mesh, dict) or not mesh:
-        raise SceneError(f"{reading.path}: no [mesh] table: give file = \"<mesh>.msh\" (relative to the scene file)")
+        given = "no [mesh] table" if mesh is None else "[mesh] is empty" if mesh == {} else \
+            f"mesh = {mesh!r} is not a table"
+        raise SceneError(f"{reading.path}: {given}: give [mesh] file = \"<mesh>.msh\" (relative to the scene file) "
+                         "or [mesh] builder = ...")
     table = Table(mesh, f"{reading.path}: [mesh]", set(mesh))  # keys are checked per mesh source
     reading.mesh = mesh_table(table, os.path.dirname(os.path.abspath(reading.path)), reading.comm)
+    cells = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}[reading.mesh.mesh.ufl_cell().cellname()]
+    if reading.element is not None and CELLS[reading.element[0]] != cells:
+        suited = sorted(name for name in ELEMENTS if CELLS[name[0]] == cells)
+        raise SceneError(f"{reading.path}: [solver]: element {reading.element!r} is for {CELLS[reading.element[0]]}, "
+                         f"but mesh {reading.mesh.source} has {cells}: choose one of {suited}")
 
 
 def mesh_table(table: Table, directory: str, comm: MPI.Comm) -> MeshData:

@@ -12,6 +12,9 @@
   which scales by the square root of that ratio and relaxes toward its largest step).
 * A failed increment is halved, at most ``max_cutbacks`` times; then the run ends with a
   ``ConvergenceError`` that keeps the converged increments.
+* A run asked to stop (``stop``: system/signals.py) stops after the next increment that
+  converges, unless it ends the step, with an ``Interrupted`` that keeps the converged
+  increments: the state and the load factors are that increment's.
 
 The settings named here are the fields of ``SolverSettings`` (system/settings.py).
 
@@ -25,11 +28,12 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from collections.abc import Callable
 
 import numpy as np
 from petsc4py import PETSc
 
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, Interrupted
 from .newton import NewtonSolver
 from .problem import Problem
 from .settings import SolverSettings
@@ -70,11 +74,13 @@ class FailedIncrement:
 
 
 def run_step(problem: Problem, newton: NewtonSolver, settings: SolverSettings, step_index: int, step_name: str,
-             increments: int) -> list[Increment]:
+             increments: int, stop: Callable[[], str | None] | None = None) -> list[Increment]:
     """Advance one step of the load path from t = 0 to 1 with adaptive increments.
 
     Returns the list of converged ``Increment``; raises ``ConvergenceError`` (with the
-    converged ones attached as ``.increments``) when the cut-backs are exhausted.
+    converged ones attached as ``.increments``) when the cut-backs are exhausted, and
+    ``Interrupted`` (likewise) when ``stop`` (collective: ``StopRequests.requested``) names a
+    signal after an increment that does not end the step.
     """
     problem.begin_step(step_index)
     x = problem.x
@@ -103,6 +109,7 @@ def run_step(problem: Problem, newton: NewtonSolver, settings: SolverSettings, s
             dt_prev = dt
             use_predictor = settings.predictor
             dt = max(dt * next_increment_factor(increment.factorizations, settings), smallest)
+            _stop_if_asked(stop, step_name, t, done)
             continue
         _restore_or_give_up(problem, newton, settings, x, x_old, FailedIncrement(step_name, t, dt, reason), smallest,
                             done)
@@ -110,6 +117,18 @@ def run_step(problem: Problem, newton: NewtonSolver, settings: SolverSettings, s
         use_predictor = False
     problem.set_load_factor([ramp(f.step, step_index, 1.0) for f in problem.features])
     return done
+
+
+def _stop_if_asked(stop: Callable[[], str | None] | None, step_name: str, t: float, done: list[Increment]) -> None:
+    """Raise ``Interrupted`` (with the converged increments) if ``stop`` names a signal, at load
+    factor t of a step not yet done (collective)."""
+    if stop is None or t >= 1.0 - 1e-12:
+        return
+    signal = stop()
+    if signal:
+        error = Interrupted(f"interrupted by {signal} in step {step_name!r} at load factor {t:.4g}", signal)
+        error.increments = done
+        raise error
 
 
 def _predict(problem: Problem, newton: NewtonSolver, x: PETSc.Vec, x_old: PETSc.Vec, x_prev: PETSc.Vec,

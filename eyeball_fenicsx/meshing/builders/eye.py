@@ -127,8 +127,10 @@ def eye_geometry(axial_length: float = 24.0, sclera_thickness_limbus: float = 0.
         nodes, hexes = detach(nodes, hexes, regions, m, detachment, p["sector_deg"])
     _, scaled = corner_jacobians(nodes, hexes)
     if scaled.min() < MIN_SCALED_JACOBIAN:
+        cause = "a detachment gap too large for the elements?" if detachment is not None else \
+            f"axial_length {p['axial_length']} mm and the thicknesses out of proportion?"
         raise SceneError(f"eye: the mesh has a corner with scaled Jacobian {scaled.min():.3f} < {MIN_SCALED_JACOBIAN} "
-                         "(a detachment gap too large for the elements?)")
+                         f"({cause})")
     surfaces = name_surfaces(nodes, hexes, regions, m, p["sector_deg"])
     check_closed(nodes, surfaces, p["sector_deg"], detachment is not None)
     info = _statistics(nodes, hexes, regions, surfaces, scaled, m, p)

@@ -129,7 +129,7 @@ def _cap_of_solid_angle(nodes, interface, face_centres, angle, extent, sector_de
         error = abs(np.sum(quad_areas(nodes, opened) / np.sum(nodes[opened].mean(axis=1) ** 2, axis=1)) - cap)
         if len(interior) and (best is None or error < best[0]):
             best = (error, rim, interior)
-    if best is None:
+    if best is None or best[0] > cap:  # the smallest patch that opens is over twice the cap
         raise SceneError(_TOO_SMALL)
     _, rim, interior = best
     return rim, interior
