@@ -68,14 +68,22 @@ def read_summary(folder):
 
 def stopping_in(folder_name, monkeypatch):
     """Make ``Scene.run`` into the folder ``folder_name`` stop after its first step, as if a
-    signal had come (``StopRequests.requested`` names one at the first safe point)."""
+    signal had come during it (``StopRequests.requested`` names none before the first step, and
+    one from then on: the steps here converge in one increment, so it is next asked before the
+    second step)."""
     run = Scene.run
 
     def run_and_stop(self, out_dir=None, resume=False):
         if os.path.basename(out_dir) != folder_name:
             return run(self, out_dir, resume)
+        asked = []
+
+        def requested(self):
+            asked.append(True)
+            return "SIGTERM" if len(asked) > 1 else None
+
         with monkeypatch.context() as patch:
-            patch.setattr(StopRequests, "requested", lambda self: "SIGTERM")
+            patch.setattr(StopRequests, "requested", requested)
             return run(self, out_dir, resume)
 
     monkeypatch.setattr(Scene, "run", run_and_stop)
