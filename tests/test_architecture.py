@@ -140,3 +140,13 @@ def test_a_feature_that_plays_part_of_a_role_is_refused():
         check_whole_role(HalfATangent(), NodalTangent)
     HalfATangent.symmetric_tangent = True
     check_whole_role(HalfATangent(), NodalTangent)  # the whole role: accepted
+
+
+def test_readable_labels():
+    """The figures a surgeon reads are named in words with their units; an unknown key keeps its text."""
+    from eyeball_fenicsx.output.labels import label
+    assert label("eye.max_mises_MPa.band") == "largest von Mises stress, band (MPa)"
+    assert label("eye.iop_mmHg") == "IOP (mmHg)"
+    assert label("band.0.reduction") == "band 1: circumference reduction (mm)"
+    assert label("mesh.band_width") == "band width (mm)"
+    assert label("eye.something_new") == "eye / something_new"

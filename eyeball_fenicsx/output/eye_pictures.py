@@ -19,6 +19,7 @@ import numpy as np
 from dolfinx import cpp, fem
 
 from .files import flatten, plot_curves, save_figure_atomic
+from .labels import label
 from .measures import DETACHED_GAP, EyeMeasures, polar_angle
 from .observer import Observer
 
@@ -187,8 +188,8 @@ def eye_measures_png(steps: list[dict], path: str) -> None:
         return
     rows = [flatten(step["eye"]) for step in steps]
     names = [name for name in rows[0] if all(isinstance(row.get(name), float) for row in rows)]
-    plot_curves(path, list(range(1, len(rows) + 1)), {name: [row[name] for row in rows] for name in names}, "step",
-                [step["name"] for step in steps])
+    curves = {label(f"eye.{name}"): [row[name] for row in rows] for name in names}
+    plot_curves(path, list(range(1, len(rows) + 1)), curves, "step", [step["name"] for step in steps])
 
 
 class EyePictures(Observer):

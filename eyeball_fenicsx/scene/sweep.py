@@ -27,6 +27,7 @@ from mpi4py import MPI
 from ..checks import is_number
 from ..errors import ConvergenceError, SceneError
 from ..output.files import flatten, plot_curves, write_json_atomic, write_text_atomic
+from ..output.labels import label
 from .loader import _parsed, load_scene
 from .overrides import entry
 from .scene import Scene
@@ -161,4 +162,5 @@ def _plot(rows: list[dict[str, Any]], parameter: str, path: str) -> None:
     if any(c.startswith("eye.") for c in numeric):
         numeric = [c for c in numeric if c.startswith("eye.")]
     if numeric:
-        plot_curves(path, [r[parameter] for r in rows], {c: [r[c] for r in rows] for c in numeric}, parameter)
+        curves = {label(c): [r[c] for r in rows] for c in numeric}
+        plot_curves(path, [r[parameter] for r in rows], curves, label(parameter))
