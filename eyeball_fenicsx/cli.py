@@ -3,7 +3,8 @@
 Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid (or a
 command-line option is unknown, or the checkpoint to resume is damaged or another scene's);
 3 a step did not converge after the automatic cut-backs; 4 a signal (SIGTERM, SIGINT, SIGUSR1)
-stopped the run at a safe point, with the last converged state kept (``--resume`` continues it).
+stopped the run at a safe point, with the last converged state kept (``--resume`` continues it);
+5 the output folder could not be written (a full disk, no permission), what was written kept.
 Errors are one line on stderr. Options after the scene that start with one dash
 (``-eye_snes_monitor``...) go to PETSc; an option with two dashes that is not the command's own
 is an error, never handed to PETSc. The load increments are printed on stdout by rank 0
@@ -16,10 +17,11 @@ import sys
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .errors import ConvergenceError, Interrupted, SceneError
+from .errors import ConvergenceError, Interrupted, OutputError, SceneError
 from .output.console import print_on_rank0
 
 INTERRUPTED = 4  # the exit code of a run a signal stopped
+UNWRITABLE = 5  # the exit code of a run that could not write its output folder
 
 
 def _petsc_options(tokens: list[str]) -> None:
@@ -92,6 +94,8 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(3, error)
     except Interrupted as error:
         return _fail(INTERRUPTED, error)
+    except OutputError as error:
+        return _fail(UNWRITABLE, error)
     except KeyboardInterrupt:  # Ctrl-C before the run began: nothing was written
         return _fail(INTERRUPTED, "interrupted before the first step")
     return 0

@@ -1,4 +1,4 @@
-"""The three ways a run ends early, each with its exit code in the CLI."""
+"""The four ways a run ends early, each with its exit code in the CLI."""
 
 
 class SceneError(ValueError):
@@ -16,3 +16,8 @@ class Interrupted(RuntimeError):
     def __init__(self, message: str, signal: str = "") -> None:
         super().__init__(message)
         self.signal = signal
+
+
+class OutputError(OSError):
+    """The output folder could not be written (a full disk, no permission), on every rank
+    together, with what was written before kept: the CLI exits 5."""

@@ -22,7 +22,7 @@ from mpi4py import MPI
 from test_scenes import SYMMETRY_PLANES
 
 from eyeball_fenicsx import cli
-from eyeball_fenicsx.errors import Interrupted
+from eyeball_fenicsx.errors import Interrupted, OutputError
 from eyeball_fenicsx.output.console import increment_lines
 from eyeball_fenicsx.scene.loader import load_scene
 
@@ -300,7 +300,7 @@ def test_resume_refuses_another_scene_and_a_damaged_checkpoint(folder, capfd):
 
     folder_of_checkpoint = os.path.join(out, "checkpoint")
     whole = on_rank0(snapshot, folder_of_checkpoint)
-    for damaged, keep in (("state.json", 11), ("arrays-0003.npz", 1000)):  # cut short, as by a full disk
+    for damaged, keep in (("state.json", 11), ("arrays-0003-00000.npz", 1000)):  # cut short, as by a full disk
 
         def damage():
             for name, data in whole.items():
@@ -312,6 +312,17 @@ def test_resume_refuses_another_scene_and_a_damaged_checkpoint(folder, capfd):
         assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, err
         assert "damaged" in err and "nothing in" in err
         assert on_rank0(snapshot, out) == kept
+
+
+def test_an_unwritable_output_folder_is_exit_5(folder, capfd):
+    """A folder that cannot be made (a file stands where it would be; root ignores permissions):
+    one line naming the file, exit 5 on every rank, and the file left as it was."""
+    scene = write_scene(folder)
+    blocker = os.path.join(folder, "a-file")
+    on_rank0(lambda: open(blocker, "w").write("kept"))
+    code, _, err = run_cli(["run", scene, "--out", os.path.join(blocker, "out")], capfd)
+    assert code == 5 and err.startswith("error: could not write ") and "a-file" in err and err.count("\n") == 1, err
+    assert on_rank0(lambda: open(blocker).read()) == "kept"
 
 
 def test_an_unknown_double_dash_option_is_exit_2(folder, capfd):
@@ -334,16 +345,17 @@ def test_a_checkpoint_cut_short_leaves_the_one_before(folder, reference, monkeyp
 
     def write_but_the_fourth(path, data):
         written.append(os.path.basename(path))
-        if len(written) == 4:  # arrays-0001, state.json, arrays-0002, then state.json: fails
+        if len(written) == 4:  # on rank 0: its arrays-0001, state.json, its arrays-0002, then state.json: fails
             raise OSError("killed")
         write_bytes(path, data)
     write_bytes = checkpoint._write_bytes_atomic
     monkeypatch.setattr(checkpoint, "_write_bytes_atomic", write_but_the_fourth)
-    with pytest.raises(OSError, match="killed"):
+    with pytest.raises(OutputError, match="could not write the checkpoint.*killed.*the checkpoint before it is kept"):
         load_scene(write_scene(folder), COMM).run(out)
     monkeypatch.undo()
     state = on_rank0(read_json, os.path.join(out, "checkpoint", "state.json"))
-    assert state["next_step"] == 1 and state["arrays"] == "arrays-0001.npz"
+    assert state["next_step"] == 1
+    assert [name for name, _ in state["arrays"]] == [f"arrays-0001-{rank:05d}.npz" for rank in range(COMM.size)]
     assert on_rank0(read_json, os.path.join(out, "summary.json"))["state"] == "failed"
     resumed = load_scene(write_scene(folder), COMM).run(out, resume=True)
     assert resumed["resumed"] == [{"step": "inject", "ranks": COMM.size}]

@@ -1,20 +1,27 @@
 """Checkpoints: what a run needs to continue, written after every converged step, and read back
 by a resumed run (``Scene.run(out_dir, resume=True)``, ``eyeball-fenicsx run ... --resume``).
 
-A checkpoint is the folder ``DIR/checkpoint/``, written by rank 0:
+A checkpoint is the folder ``DIR/checkpoint/``:
 
-* ``arrays-<k>.npz``: the arrays over the dofs of the solid's mixed space W, gathered from every
-  rank and sorted by their dof key (below): ``solution`` (the (u, p) dofs) and the features' dof
-  arrays (contact multipliers, the values a prescribed displacement ramped from);
-* ``state.json``: ``next_step`` (k, the index of the first step not done), the summary so far,
-  the global unknowns of the problem (the liquids' pressures: with the (u, p) dofs, the
-  solution), each feature's and observer's state that is not a dof array (a cavity's liquid law,
-  the eye's pre-operative length...), the scene's fingerprint (output/fingerprint.py),
-  the number of ranks that wrote it, and the name and SHA-256 of its arrays' file.
+* ``arrays-<k>-<rank>.npz``, one per rank, written by that rank: its owned dofs of the solid's
+  mixed space W, sorted by their dof key (below), with their ``solution`` (the (u, p) dofs) and the
+  features' dof arrays (contact multipliers, the values a prescribed displacement ramped from).
+  No rank ever holds more than its own part, when writing or when reading;
+* ``state.json``, written by rank 0: ``next_step`` (k, the index of the first step not done), the
+  summary so far, the global unknowns of the problem (the liquids' pressures: with the (u, p)
+  dofs, the solution), each feature's and observer's state that is not a dof array (a cavity's
+  liquid law, the eye's pre-operative length...), the scene's fingerprint
+  (output/fingerprint.py), the number of ranks that wrote it, and the name and SHA-256 of each
+  of its arrays' files.
 
-Atomic: the arrays go to a file named by their step, then ``state.json`` is written under a
+Atomic: the arrays go to files named by their step, then ``state.json`` is written under a
 temporary name and renamed over the old one; it names the arrays it belongs to, so a run killed at
-any moment leaves the previous checkpoint whole (the older arrays' file is removed after).
+any moment leaves the previous checkpoint whole (the older arrays' files are removed after).
+
+Reading on m ranks what n ranks wrote: rank r reads files r, r + m, ... (checking each file's
+SHA-256) and sends every entry to the rank that keeps its key's directory (key mod m); each rank
+asks those directories for the keys of the dofs it owns, and gets their values back (two
+all-to-all exchanges: the memory and the reading are shared among the ranks).
 
 Dof key: the place of a dof in a cell, ``original cell index * dofs per cell + local index``, the
 smallest over the cells that hold it (a reverse ghost update with MAX of its negative reaches the
@@ -45,14 +52,14 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..errors import SceneError
+from ..errors import OutputError, SceneError
 from ..system.stepping import ramp
 from .fingerprint import first_difference
 
 if TYPE_CHECKING:
     from ..system.problem import Problem
 
-FORMAT = "eyeball-fenicsx checkpoint 1"
+FORMAT = "eyeball-fenicsx checkpoint 2"
 
 
 @runtime_checkable
@@ -68,13 +75,13 @@ class Checkpointed(Protocol):
 
 @dataclasses.dataclass
 class Saved:
-    """A checkpoint as read: ``arrays`` (name -> values in key order, with "keys") on rank 0 only."""
+    """A checkpoint as read (its arrays are read by ``Checkpoint.restore``, shared among the ranks)."""
 
     next_step: int
     summary: dict
     states: dict  # "unknowns": the global unknowns; "features" / "observers": a dict of JSON values per item
     ranks: int
-    arrays: dict | None = None
+    arrays: list  # [file name, SHA-256] of each arrays' file
     fingerprint: dict | None = None  # rank 0 only
 
 
@@ -143,37 +150,48 @@ class Checkpoint:
                 shared[group].append({key: value for key, value in state.items() if not isinstance(value, np.ndarray)})
                 columns.update({f"{group}.{i}.{key}": value[:n_owned] for key, value in state.items()
                                 if isinstance(value, np.ndarray)})
-        names = list(columns)
-        table = np.column_stack([columns[name] for name in names])
-        gathered = self.comm.gather((self.keys(problem.solid.W)[:n_owned], table), root=0)
-        failure = None
+        keys = self.keys(problem.solid.W)[:n_owned]
+        order = np.argsort(keys)
+        arrays = {"keys": keys[order], **{name: values[order] for name, values in columns.items()}}
+        name = f"arrays-{next_step:04d}-{self.comm.rank:05d}.npz"
+        written, failure = None, None
+        try:  # every rank must answer, whatever goes wrong, or the others would wait for ever
+            written = [name, self._write_arrays(name, arrays)]
+        except Exception as error:
+            failure = self._unwritten(error)
+        files = self.comm.gather((written, failure), root=0)
         if self.comm.rank == 0:
-            keys = np.concatenate([g[0] for g in gathered])
-            table = np.concatenate([g[1] for g in gathered])
-            order = np.argsort(keys)
-            arrays = {"keys": keys[order], **{name: table[order, j] for j, name in enumerate(names)}}
+            failure = next((f for _, f in files if f), None)
             state = {"format": FORMAT, "next_step": next_step, "ranks": self.comm.size, "fingerprint": fingerprint,
-                     **shared, "summary": summary}
-            try:  # rank 0 must answer, whatever goes wrong, or the other ranks would wait for ever
-                self._write_files(next_step, arrays, state)
+                     **shared, "summary": summary, "arrays": [w for w, _ in files]}
+            try:
+                if failure is None:
+                    self._write_state(state)
             except Exception as error:
-                failure = f"could not write the checkpoint in {self.folder}: {type(error).__name__}: {error}"
+                failure = self._unwritten(error)
         failure = self.comm.bcast(failure, root=0)
         if failure:
-            raise OSError(failure)
+            raise OutputError(failure)
 
-    def _write_files(self, next_step: int, arrays: dict, state: dict) -> None:
-        """Rank 0: the arrays under a new name, then state.json over the old one, then the old arrays away."""
+    def _unwritten(self, error: Exception) -> str:
+        return (f"could not write the checkpoint in {self.folder} ({type(error).__name__}: {error}); the "
+                "checkpoint before it is kept")
+
+    def _write_arrays(self, name: str, arrays: dict) -> str:
+        """This rank's arrays under a new name; their SHA-256."""
         os.makedirs(self.folder, exist_ok=True)
         buffer = io.BytesIO()
         np.savez(buffer, **arrays)
         data = buffer.getvalue()
-        name = f"arrays-{next_step:04d}.npz"
         _write_bytes_atomic(os.path.join(self.folder, name), data)
-        state.update(arrays=name, sha256=hashlib.sha256(data).hexdigest())
+        return hashlib.sha256(data).hexdigest()
+
+    def _write_state(self, state: dict) -> None:
+        """Rank 0: state.json over the old one, then the old arrays away."""
         _write_bytes_atomic(self.state_file, json.dumps(state, indent=1, default=_plain).encode())
+        current = {name for name, _ in state["arrays"]}
         for old in glob.glob(os.path.join(self.folder, "arrays-*.npz*")) + glob.glob(f"{self.state_file}.tmp*"):
-            if os.path.basename(old) != name:  # older arrays, and what a killed run left half written
+            if os.path.basename(old) not in current:  # older arrays, and what a killed run left half written
                 os.remove(old)
 
     # -- reading -------------------------------------------------------------------------
@@ -190,12 +208,9 @@ class Checkpoint:
         message = self.comm.bcast(message, root=0)
         if message:
             raise SceneError(message)
-        head = self.comm.bcast(None if saved is None else (saved.next_step, saved.summary, saved.states, saved.ranks),
-                               root=0)
-        if head is None:
-            return None
-        arrays = saved.arrays if self.comm.rank == 0 else None
-        return Saved(*head, arrays=arrays)
+        head = self.comm.bcast(None if saved is None else (saved.next_step, saved.summary, saved.states, saved.ranks,
+                                                           saved.arrays), root=0)
+        return None if head is None else Saved(*head)
 
     def _damaged(self, error: Exception) -> str:
         return (f"{self.state_file}: the checkpoint is damaged ({type(error).__name__}: {error}); nothing in "
@@ -209,21 +224,14 @@ class Checkpoint:
             state = json.loads(f.read())
         if state.get("format") != FORMAT:
             raise ValueError(f"format {state.get('format')!r}, not {FORMAT!r}")
-        path = os.path.join(self.folder, os.path.basename(state["arrays"]))
-        if not os.path.exists(path):
-            raise FileNotFoundError(f"its arrays {path} are missing")
-        with open(path, "rb") as f:
-            data = f.read()
-        if hashlib.sha256(data).hexdigest() != state["sha256"]:
-            raise ValueError(f"{path} is not the file it wrote (its SHA-256 differs: truncated or changed)")
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            arrays = {name: npz[name] for name in npz.files}
-        if "keys" not in arrays or "solution" not in arrays:
-            raise KeyError(f"{path} lacks the dof keys or the solution")
+        for name, _ in state["arrays"]:
+            if not os.path.exists(os.path.join(self.folder, os.path.basename(name))):
+                raise FileNotFoundError(f"its arrays {name} are missing")
         if not 0 < state["next_step"] <= num_steps or not isinstance(state["summary"]["steps"], list):
             raise ValueError(f"next step {state['next_step']} of {num_steps}")
         states = {group: state[group] for group in ("unknowns", "features", "observers")}
-        return Saved(state["next_step"], state["summary"], states, state["ranks"], arrays, state["fingerprint"])
+        return Saved(state["next_step"], state["summary"], states, state["ranks"], state["arrays"],
+                     state["fingerprint"])
 
     def _mismatch(self, saved: Saved, fingerprint: dict) -> str | None:
         difference = first_difference(fingerprint, saved.fingerprint)
@@ -257,34 +265,66 @@ class Checkpoint:
         problem.state_to_vector(problem.x)
         problem.vector_to_state(problem.x)  # the features that follow the state (state_changed)
 
-    def _parts(self, arrays: dict, requests: list[np.ndarray]) -> tuple[list | None, str | None]:
-        """Rank 0: each rank's entries of the arrays, by its dofs' keys (or an error)."""
-        keys = arrays["keys"]
-        where = [np.minimum(np.searchsorted(keys, mine), len(keys) - 1) for mine in requests]
-        missing = sum(int(np.sum(keys[w] != mine)) for w, mine in zip(where, requests))
-        if missing or sum(len(mine) for mine in requests) != len(keys):
-            return None, (f"{self.state_file}: its arrays hold {len(keys)} dofs, and {missing} of this mesh's "
-                          f"{sum(len(mine) for mine in requests)} are not among them: the checkpoint is damaged or "
-                          "another mesh's")
-        return [{name: values[w] for name, values in arrays.items() if name != "keys"} for w in where], None
-
     def _local_arrays(self, saved: Saved, W: fem.FunctionSpace, n_owned: int) -> dict[str, np.ndarray]:
-        """Each rank's entries of the checkpoint's dof arrays, ghosts filled by their owners."""
-        requests = self.comm.gather(self.keys(W)[:n_owned], root=0)
-        parts, message = None, None
-        if self.comm.rank == 0:
-            try:
-                parts, message = self._parts(saved.arrays, requests)
-            except Exception as error:
-                message = self._damaged(error)
-        message = self.comm.bcast(message, root=0)
-        if message:
-            raise SceneError(message)
-        mine = self.comm.scatter(parts, root=0)
+        """Each rank's entries of the checkpoint's dof arrays (module docstring), ghosts filled by
+        their owners."""
+        size = self.comm.size
+        message, names, table = None, None, None
+        try:
+            names, keys, table = self._read_share(saved.arrays[self.comm.rank::size])
+        except Exception as error:
+            message = self._damaged(error)
+        self._agree(message)
+        names = next(n for n in self.comm.allgather(names) if n is not None)  # a rank may read no file
+        if table is None:
+            keys, table = np.zeros(0, dtype=np.int64), np.zeros((0, len(names)))
+        directory = [(keys[keys % size == d], table[keys % size == d]) for d in range(size)]
+        received = self.comm.alltoall(directory)
+        keys = np.concatenate([k for k, _ in received])
+        table = np.concatenate([t for _, t in received])
+        order = np.argsort(keys)
+        keys, table = keys[order], table[order]
+        mine = self.keys(W)[:n_owned]
+        asked = self.comm.alltoall([mine[mine % size == d] for d in range(size)])
+        where = [np.minimum(np.searchsorted(keys, k), max(len(keys) - 1, 0)) for k in asked]
+        missing = sum(int(np.sum(keys[w] != k)) if len(keys) else len(k) for w, k in zip(where, asked))
+        missing, stored, wanted = self.comm.allreduce(np.array([missing, len(keys), n_owned]), op=MPI.SUM)
+        if missing or stored != wanted:
+            raise SceneError(f"{self.state_file}: its arrays hold {stored} dofs, and {missing} of this mesh's {wanted} "
+                             "are not among them: the checkpoint is damaged or another mesh's")
+        answers = self.comm.alltoall([table[w] for w in where])
+        values = np.zeros((n_owned, len(names)))
+        for d in range(size):
+            values[mine % size == d] = answers[d]
         work = fem.Function(W)
         local = {}
-        for name, values in mine.items():
-            work.x.array[:n_owned] = values
+        for j, name in enumerate(names):
+            work.x.array[:n_owned] = values[:, j]
             work.x.scatter_forward()
             local[name] = work.x.array.copy()
         return local
+
+    def _read_share(self, files: list) -> tuple[list | None, np.ndarray | None, np.ndarray | None]:
+        """This rank's share of the arrays' files, checked: the column names, the keys and the table."""
+        names, keys, tables = None, [], []
+        for name, digest in files:
+            path = os.path.join(self.folder, os.path.basename(name))
+            with open(path, "rb") as f:
+                data = f.read()
+            if hashlib.sha256(data).hexdigest() != digest:
+                raise ValueError(f"{path} is not the file it wrote (its SHA-256 differs: truncated or changed)")
+            with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+                if "keys" not in npz.files or "solution" not in npz.files:
+                    raise KeyError(f"{path} lacks the dof keys or the solution")
+                names = sorted(n for n in npz.files if n != "keys")
+                keys.append(npz["keys"])
+                tables.append(np.column_stack([npz[n] for n in names]))
+        if names is None:
+            return None, None, None
+        return names, np.concatenate(keys), np.concatenate(tables)
+
+    def _agree(self, message: str | None) -> None:
+        """A SceneError on every rank if any rank found one."""
+        message = next((m for m in self.comm.allgather(message) if m), None)
+        if message:
+            raise SceneError(message)

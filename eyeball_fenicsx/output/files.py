@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from dolfinx import fem, io
 from mpi4py import MPI
 
+from ..errors import OutputError
 from .observer import Observer
 
 if TYPE_CHECKING:
@@ -44,9 +45,7 @@ class FieldOutput(Observer):
         """Open the files in a hidden folder of ``out_dir`` and write the mesh and its regions."""
         self.final = [os.path.join(out_dir, self.name + ext) for ext in (".xdmf", ".h5")]
         self.hidden = os.path.join(out_dir, f".{self.name}.partial")
-        if self.comm.rank == 0:
-            os.makedirs(self.hidden, exist_ok=True)
-        self.comm.barrier()
+        make_folder(self.hidden, self.comm)
         self.file = io.XDMFFile(self.comm, os.path.join(self.hidden, self.name + ".xdmf"), "w")
         self.file.write_mesh(self.solid.mesh_data.mesh)
         self.solid.mesh_data.cell_tags.name = "region"
@@ -70,15 +69,37 @@ class FieldOutput(Observer):
         self.comm.barrier()
 
 
-def write_text_atomic(path: str, text: str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
-    """Write a text file on rank 0 to a temporary name, then rename it into place."""
+def make_folder(path: str, comm: MPI.Comm) -> None:
+    """Make a folder on rank 0; an ``OutputError`` on every rank if it could not."""
+    failure = None
     if comm.rank == 0:
-        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        try:
+            os.makedirs(path, exist_ok=True)
+        except OSError as error:
+            failure = f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
+    failure = comm.bcast(failure, root=0)
+    if failure:
+        raise OutputError(failure)
+
+
+def write_text_atomic(path: str, text: str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+    """Write a text file on rank 0 to a temporary name, then rename it into place; an
+    ``OutputError`` on every rank if rank 0 could not (the file as it was is kept)."""
+    failure = None
+    if comm.rank == 0:
         tmp = f"{path}.tmp{os.getpid()}"
-        with open(tmp, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    comm.barrier()
+        try:
+            os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+            with open(tmp, "w") as f:
+                f.write(text)
+            os.replace(tmp, path)
+        except OSError as error:
+            failure = f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
+            if os.path.exists(tmp):
+                os.remove(tmp)
+    failure = comm.bcast(failure, root=0)
+    if failure:
+        raise OutputError(failure)
 
 
 def write_json_atomic(path: str, data: dict, comm: MPI.Comm = MPI.COMM_WORLD) -> None:

@@ -35,6 +35,7 @@ that remain, as the interrupted run would have.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import os
 import re
@@ -107,7 +108,7 @@ class Scene:
     def build(self) -> Scene:
         """Create the solid, the Newton problem and the solver (compiles the forms), and set up
         the observers: the probes, the reports and the scene's ``observers``."""
-        self.fingerprint()  # of the scene as given, before its features are set up
+        self.fingerprint  # noqa: B018 (taken now: of the scene as given, before its features are set up)
         self.solid = MixedSolid(self.mesh, self.materials, self.element)
         self.problem = Problem(self.solid, self.features)
         self.newton = NewtonSolver(self.problem)
@@ -116,11 +117,10 @@ class Scene:
             observer.setup(self.solid, self.problem)
         return self
 
+    @functools.cached_property
     def fingerprint(self) -> dict:
         """What decides the scene's answer (output/fingerprint.py), taken once, before it is built."""
-        if not hasattr(self, "_fingerprint"):
-            self._fingerprint = scene_fingerprint(self)
-        return self._fingerprint
+        return scene_fingerprint(self)
 
     def run(self, out_dir: str | None = None, resume: bool = False) -> dict:
         """Solve every step; write fields, summary.json and a checkpoint after each step into
@@ -167,7 +167,7 @@ class Scene:
                 log.info("%s holds a checkpoint: this run starts from the first step and replaces it once a step "
                          "converges (--resume continues it)", checkpoint.folder)
             return None
-        saved = checkpoint.read(self.fingerprint(), len(self.steps))
+        saved = checkpoint.read(self.fingerprint, len(self.steps))
         if saved is None:
             log.info("no checkpoint in %s: the run starts from the first step", checkpoint.out_dir)
         return saved
@@ -206,7 +206,7 @@ class Scene:
                 summary["ok"] = index == last
                 if checkpoint is not None:
                     summary["wall_s"] = wall()
-                    checkpoint.write(index + 1, summary, self.fingerprint(), self.problem,
+                    checkpoint.write(index + 1, summary, self.fingerprint, self.problem,
                                      [*self.reports, *self.observers])
                     resumable = index + 1
                 self._write_summary(checkpoint, summary, wall)
