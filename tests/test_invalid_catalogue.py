@@ -266,6 +266,9 @@ CASES = {
     # [eye]
     "eye-buckle-on-an-eye-without-one": (eye(SMALL_EYE) + '[eye]\nbuckle = "band_inner"\n',
                                          ["[eye]", "surface 'band_inner'", "build_eye"]),
+    "eye-ends-on-one-node": (eye(SMALL_EYE) + '[eye]\nanterior = [0.0, 0.0, -1e3]\n'
+                             'anterior_surface = "vitreous_wall"\n',
+                             ["[eye]", "pick the same node", "axial length would be 0"]),  # fixed: read 0 mm
     # [[step]], [solver], [mesh]
     "step-empty-list": ("step = []\n" + SOLID, ["scene.toml: step = [] gives no step"]),  # fixed: ran as one step
     "solver-growth-below-one": (SOLID + "[solver]\ngrowth = 0.5\n",  # fixed: named no file

@@ -148,6 +148,10 @@ class EyeMeasures(Observer):
         self.solid = solid
         self.ends = [MaterialNode(solid, p, s) for p, s in zip(self.points, self.surfaces)]
         self.initial_length = np.linalg.norm(self.ends[0].reference - self.ends[1].reference)
+        if self.initial_length == 0.0:
+            raise SceneError(f"[eye]: anterior {list(self.points[0])} and posterior {list(self.points[1])} pick "
+                             f"the same node {list(self.ends[0].reference)}, so the axial length would be 0: give "
+                             "points near the corneal apex and the posterior pole")
         self.preoperative_length = None  # the length after the vitreous' pressurize step
         filled = self.vitreous is not None and self.vitreous.pressurize
         self.preoperative_step = self.vitreous.step if filled else None
