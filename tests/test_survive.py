@@ -360,3 +360,37 @@ def test_a_checkpoint_cut_short_leaves_the_one_before(folder, reference, monkeyp
     resumed = load_scene(write_scene(folder), COMM).run(out, resume=True)
     assert resumed["resumed"] == [{"step": "inject", "ranks": COMM.size}]
     assert_same_answer(resumed, reference, parallel=COMM.size > 1)
+
+
+# The fault injection on the surgeon's operation: the coarse encircling operation killed
+# with SIGKILL during its first step, as that step ends and during its last step, one kill after
+# the other, each time resumed; it must end with the answer of the run nobody stopped. Several
+# minutes on one rank: marked slow (`pytest -m slow tests/test_survive.py`), not run by CI.
+OPERATION_KILLS = ("step pressurize: load factor 0.5000", "step pressurize: load factor 1.0000",
+                   "step drain: load factor 0.5000")
+
+
+@pytest.mark.slow
+def test_the_encircling_operation_killed_three_times_resumes_to_its_answer(folder):
+    with open(os.path.join(REPO, "demos", "encircling_buckle.toml")) as f:
+        text = f.read()
+    assert "n_circ = 40" in text
+    scene = write_scene(folder, text.replace("n_circ = 40", "n_circ = 16"), "operation.toml")
+
+    def kill_resume_and_compare():
+        code, _, err = child(["run", scene, "--out", os.path.join(folder, "operation-reference")])
+        assert code == 0, err
+        reference = read_json(os.path.join(folder, "operation-reference", "summary.json"))
+        out = os.path.join(folder, "operation-killed")
+        for i, kill_at in enumerate(OPERATION_KILLS):
+            code, _, _ = child(["run", scene, "--out", out] + (["--resume"] if i else []), kill_at=kill_at)
+            assert code == -signal.SIGKILL
+            summary = read_json(os.path.join(out, "summary.json"))
+            assert summary["state"] == "running" and summary["ok"] is False
+        code, _, err = child(["run", scene, "--out", out, "--resume"])
+        assert (code, err) == (0, ""), err
+        return read_json(os.path.join(out, "summary.json")), reference
+    resumed, reference = on_rank0(kill_resume_and_compare)
+    assert resumed["state"] == "done" and resumed["ok"] is True
+    assert resumed["resumed"][-1]["step"] == "drain"  # the kill as "pressurize" ended may precede its checkpoint
+    assert_same_answer(resumed, reference)
