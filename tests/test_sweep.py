@@ -209,23 +209,24 @@ def test_bands_bracket_the_closed_forms_at_the_range_ends(scene_path, shared_tmp
 
 
 def test_a_stopped_grid_resumes(scene_path, shared_tmp, monkeypatch):
-    """The grid with a range (three runs a point) stopped in the third point's low corner: the
-    resumed sweep runs the rest only, and its rows and bands are the closed forms."""
+    """A grid of two parameters with a range (three runs a point) stopped in the second point's
+    low corner: the resumed sweep runs the rest only, and its rows are the closed forms."""
     out, ranges = os.path.join(shared_tmp, "grid"), [(C10, 0.4, 0.7)]
-    grid = {PARAMETER: (0.1, 0.2), "dirichlet.4.y": (-0.05, -0.1)}
+    grid = {PARAMETER: (0.1, 0.2), "dirichlet.4.y": (-0.1,)}
     with monkeypatch.context() as patch:
-        stopping_in("02-l", patch)
+        stopping_in("01-l", patch)
         with pytest.raises(Interrupted):
             run_sweep(scene_path, grid, out, ranges=ranges)
-    assert read_summary(os.path.join(out, "02-l"))["state"] == "interrupted"
-    assert not os.path.exists(os.path.join(out, "02-h"))
-    first = os.path.join(out, "01-h", "summary.json")
+    assert read_summary(os.path.join(out, "01-l"))["state"] == "interrupted"
+    assert not os.path.exists(os.path.join(out, "01-h"))
+    first = os.path.join(out, "00-h", "summary.json")
     before = open(first).read()
     COMM.barrier()
     rows = run_sweep(scene_path, grid, out, resume=True, ranges=ranges)
     assert open(first).read() == before  # done: not run again
-    assert read_summary(os.path.join(out, "02-l"))["resumed"][0]["step"] == "squeeze"
-    for row in rows:  # the squeeze is -0.05 or -0.1: the closed form with m = 1 + y
+    assert read_summary(os.path.join(out, "01-l"))["resumed"][0]["step"] == "squeeze"
+    assert [row[PARAMETER] for row in rows] == [0.1, 0.2]
+    for row in rows:  # the squeeze is -0.1: the closed form with m = 1 + y
         stretch, squeeze = 1.0 + row[PARAMETER], 1.0 + row["dirichlet.4.y"]
         across = 1.0 / (stretch * squeeze)
         assert row["reactions.x1.0"] == pytest.approx(2 * 0.5 * (stretch - across**2 / stretch), rel=1e-9)
