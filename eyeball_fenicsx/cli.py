@@ -70,15 +70,18 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf, checkpoint/)")
     run.add_argument("--resume", action="store_true", help="continue from the checkpoint in the output folder")
     sweep = commands.add_parser("sweep", help="run a scene over a grid of parameter values, with bands over "
-                                "ranges of constants (CSV + PNG)")
+                                "ranges of constants (CSV + PNG)",
+                                usage="eyeball-fenicsx sweep SCENE --parameter P --values V [V ...] [--parameter Q "
+                                "--values W [W ...]] [--range R LOW HIGH]... --out DIR [--resume]")
     sweep.add_argument("scene")
     sweep.add_argument("--parameter", action="append", default=[], help="dotted path into the scene, e.g. "
                        "band.0.reduction; repeat it, each with its --values, for a grid")
     # the counts of values and ends are checked by the sweep (sweep_plan.py), which names the scene
     sweep.add_argument("--values", action="append", default=[], nargs="*", help="the parameter's values")
-    sweep.add_argument("--range", action="append", default=[], nargs="+", metavar=("PARAMETER", "LOW HIGH"),
-                       help="an uncertain constant: every grid point also runs at the corners of the ranges' box, "
-                       "and bands.csv gives each prediction's smallest and largest value there")
+    sweep.add_argument("--range", action="append", default=[], nargs="+", metavar=("R", "LOW HIGH"),
+                       help="R LOW HIGH: an uncertain constant and its range; every grid point also runs at the "
+                       "corners of the ranges' box, and bands.csv gives each prediction's smallest and largest "
+                       "value there")
     sweep.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.png, one folder a run)")
     sweep.add_argument("--resume", action="store_true", help="skip the runs that are done, resume the one that "
                        "was stopped")

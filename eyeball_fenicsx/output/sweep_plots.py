@@ -53,11 +53,16 @@ def predictions(rows: list[dict[str, Any]]) -> list[str]:
     """The columns to draw: numbers in every converged row that vary over them (beyond round-off:
     a reaction that is zero by symmetry has no contours), the eye measures only if any."""
     converged = [row for row in rows if row["ok"]] or rows
-    numeric = [c for c in converged[0] if c not in ("ok", "wall_s")
-               and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in converged)]
+    numeric = numeric_columns(converged, exclude=("ok", "wall_s"))
     varying = [c for c in numeric if _varies([row[c] for row in converged])]
     eye = [c for c in varying if c.startswith("eye.")]
     return eye or varying
+
+
+def numeric_columns(rows: list[dict[str, Any]], exclude: tuple[str, ...] = ()) -> list[str]:
+    """The columns, but ``exclude``, that are numbers in every row."""
+    return [c for c in dict.fromkeys(key for row in rows for key in row) if c not in exclude
+            and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
 
 
 def _varies(values: list[float]) -> bool:

@@ -32,7 +32,7 @@ from mpi4py import MPI
 
 from ..errors import ConvergenceError, SceneError
 from ..output.files import flatten, write_json_atomic, write_text_atomic
-from ..output.sweep_plots import plot_sweep
+from ..output.sweep_plots import numeric_columns, plot_sweep
 from .loader import load_scene
 from .sweep_plan import Plan, Variant, plan_sweep
 
@@ -59,12 +59,13 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
             gc.collect()
     write_json_atomic(os.path.join(out_dir, "sweep.json"), plan.record(), comm)
     rows: dict[str, dict[str, Any]] = {}
+    points = plan.points()
     for variant in variants:
         out = os.path.join(out_dir, variant.folder)
         summary, ok = (_summary(out), True) if variant.folder in done else _run(plan, variant, out, resume, comm)
         final = summary["steps"][-1] if summary["steps"] else {}
         measured = {key: v for key, v in final.items() if key not in ("name", "increments")}
-        rows[variant.folder] = {**plan.points()[variant.point], "ok": ok, "wall_s": summary["wall_s"],
+        rows[variant.folder] = {**points[variant.point], "ok": ok, "wall_s": summary["wall_s"],
                                 **flatten(measured)}
     table = [rows[v.folder] for v in variants if not v.corner]
     write_text_atomic(os.path.join(out_dir, "sweep.csv"), _csv(table), comm)
@@ -119,18 +120,12 @@ def _bands(plan: Plan, variants: list[Variant], rows: dict[str, dict[str, Any]])
         corners = [rows[v.folder] for v in variants if v.point == k and v.corner]
         whole = all(row["ok"] for row in corners)
         band: dict[str, Any] = {**point, "corners": len(corners), "corners_ok": sum(row["ok"] for row in corners)}
-        for column in _numeric(corners, exclude=(*point, "ok", "wall_s")):
+        for column in numeric_columns(corners, exclude=(*point, "ok", "wall_s")):
             values = [row[column] for row in corners]
             band[f"{column}.min"] = min(values) if whole else None
             band[f"{column}.max"] = max(values) if whole else None
         bands.append(band)
     return bands
-
-
-def _numeric(rows: list[dict[str, Any]], exclude: Sequence[str]) -> list[str]:
-    """The columns that are numbers in every row."""
-    return [c for c in dict.fromkeys(key for row in rows for key in row) if c not in exclude
-            and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
 
 
 def _summary(out: str) -> dict:
