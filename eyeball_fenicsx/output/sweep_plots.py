@@ -24,7 +24,7 @@ def plot_sweep(out_dir: str, rows: list[dict[str, Any]], grid: list[tuple[str, l
                bands: list[dict[str, Any]] | None, ranges: list[tuple[str, float, float]]) -> None:
     """sweep.png (and sweep_bands.png) in ``out_dir`` from sweep.csv's rows and bands.csv's."""
     varied = [parameter for parameter, values in grid if len(values) > 1]
-    columns = predictions(rows)
+    columns = predictions(rows, exclude=[parameter for parameter, _ in grid])
     if not columns or len(varied) not in (1, 2):
         return
     if len(varied) == 1:
@@ -49,11 +49,12 @@ def plot_sweep(out_dir: str, rows: list[dict[str, Any]], grid: list[tuple[str, l
                       (label(varied[0]), label(varied[1])))
 
 
-def predictions(rows: list[dict[str, Any]]) -> list[str]:
-    """The columns to draw: numbers in every converged row that vary over them (beyond round-off:
-    a reaction that is zero by symmetry has no contours), the eye measures only if any."""
+def predictions(rows: list[dict[str, Any]], exclude: list[str]) -> list[str]:
+    """The columns to draw: but the parameters (``exclude``), numbers in every converged row that
+    vary over them (beyond round-off: a reaction that is zero by symmetry has no contours), the
+    eye measures only if any."""
     converged = [row for row in rows if row["ok"]] or rows
-    numeric = numeric_columns(converged, exclude=("ok", "wall_s"))
+    numeric = numeric_columns(converged, exclude=("ok", "wall_s", *exclude))
     varying = [c for c in numeric if _varies([row[c] for row in converged])]
     eye = [c for c in varying if c.startswith("eye.")]
     return eye or varying
@@ -89,10 +90,10 @@ def plot_contours(path: str, points: list[tuple[float, float]], ok: list[bool], 
         if len(good) >= 3 and len(set(x)) > 1 and len(set(y)) > 1:
             filled = ax.tricontourf(x, y, values, levels=12, cmap="viridis")
             figure.colorbar(filled, ax=ax)
-        ax.plot(x, y, "k.", markersize=5)
+        ax.plot(x, y, "ko", markersize=3, clip_on=False)
         bad = [k for k in range(len(points)) if k not in good]
         if bad:
-            ax.plot([points[k][0] for k in bad], [points[k][1] for k in bad], "rx", markersize=8,
+            ax.plot([points[k][0] for k in bad], [points[k][1] for k in bad], "rx", markersize=8, clip_on=False,
                     label="did not converge")
             ax.legend(fontsize=7)
         ax.set_xlabel(axes_labels[0], fontsize=8)
