@@ -27,7 +27,9 @@ def plot_sweep(out_dir: str, rows: list[dict[str, Any]], grid: list[tuple[str, l
     columns = predictions(rows, exclude=[parameter for parameter, _ in grid])
     if not columns or len(varied) not in (1, 2):
         return
-    if len(varied) == 1:
+    if len(varied) == 1:  # in the order of the parameter's values
+        order = sorted(range(len(rows)), key=lambda k: rows[k][varied[0]])
+        rows, bands = [rows[k] for k in order], None if bands is None else [bands[k] for k in order]
         x, shaded = [row[varied[0]] for row in rows], None
         if bands is not None:
             shaded = {label(c): ([_value(b.get(f"{c}.min")) for b in bands], [_value(b.get(f"{c}.max")) for b in bands])
