@@ -14,7 +14,7 @@ or ``DIR/<k>-<corner>``; a variant that does not converge is a row with ``ok = f
 DIR/sweep.csv holds the final predictions of each grid point's own variant, one row a point;
 with ranges, DIR/bands.csv holds each point's smallest and largest value of every prediction over
 the corners (``<column>.min``, ``<column>.max``; empty where a corner did not converge);
-DIR/sweep.png draws them (sweep_plots.py); DIR/sweep.json records the scene file's SHA-256, the
+DIR/sweep.png draws them (output/sweep_plots.py); DIR/sweep.json records the scene file's SHA-256, the
 grid, the ranges and each folder's overrides.
 
 With ``resume``, a variant whose summary.json says ``"state": "done"`` is not run again (its
