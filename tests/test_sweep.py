@@ -249,3 +249,21 @@ def test_a_range_reaches_the_tissue_set(shared_tmp):
         [("l", {"materials.sclera.c.10": 0.5}), ("h", {"materials.sclera.c.10": 0.8})]
     law = load_scene(path, overrides={"materials.sclera.c.10": 0.5}).materials["sclera"]
     assert law.c == {(1, 0): 0.5, (2, 0): sclera["20"]}
+
+
+def test_a_stopped_variant_of_another_grid_starts_again(scene_path, shared_tmp, monkeypatch):
+    """The grid changed at a point that was stopped (0.2 there, now 0.3): that variant is not
+    resumed from the other value's checkpoint but run from its first step; the point done stays."""
+    out = os.path.join(shared_tmp, "changed")
+    with monkeypatch.context() as patch:
+        stopping_in("01", patch)
+        with pytest.raises(Interrupted):
+            run_sweep(scene_path, {PARAMETER: (0.1, 0.2)}, out)
+    first = os.path.join(out, "00", "summary.json")
+    before = open(first).read()
+    COMM.barrier()
+    rows = run_sweep(scene_path, {PARAMETER: (0.1, 0.3)}, out, resume=True)
+    assert open(first).read() == before
+    again = read_summary(os.path.join(out, "01"))
+    assert again["state"] == "done" and "resumed" not in again
+    assert rows[1]["reactions.x1.0"] == pytest.approx(pull(0.3, 0.5), rel=1e-9)

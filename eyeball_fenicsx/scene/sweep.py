@@ -20,7 +20,8 @@ grid, the ranges and each folder's overrides.
 With ``resume``, a variant whose summary.json says ``"state": "done"`` is not run again (its
 row is read from that summary) and every other one resumes from its checkpoint
 (``Scene.run(out, resume=True)``); the scene file and the swept parameters must be those of
-sweep.json, and a variant done with other values is an error, not a row.
+sweep.json, and a variant done with other values is an error, not a row. A variant stopped with
+other values (the grid changed) starts again from its first step.
 """
 import gc
 import json
@@ -52,7 +53,7 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
     """
     plan = plan_sweep(scene_path, grid, ranges)
     variants = plan.variants()
-    done = _done(out_dir, plan, comm) if resume else set()
+    done, stale = _done(out_dir, plan, comm) if resume else (set(), set())
     for variant in variants:
         if variant.folder not in done:
             _load(plan, variant, comm)  # checked, then released
@@ -62,7 +63,8 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
     points = plan.points()
     for variant in variants:
         out = os.path.join(out_dir, variant.folder)
-        summary, ok = (_summary(out), True) if variant.folder in done else _run(plan, variant, out, resume, comm)
+        again = resume and variant.folder not in stale
+        summary, ok = (_summary(out), True) if variant.folder in done else _run(plan, variant, out, again, comm)
         final = summary["steps"][-1] if summary["steps"] else {}
         measured = {key: v for key, v in final.items() if key not in ("name", "increments")}
         rows[variant.folder] = {**points[variant.point], "ok": ok, "wall_s": summary["wall_s"],
@@ -133,19 +135,20 @@ def _summary(out: str) -> dict:
         return json.load(f)
 
 
-def _done(out_dir: str, plan: Plan, comm: MPI.Comm) -> set[str]:
-    """The folders of the variants that a sweep of the same scene and parameters left done in
-    ``out_dir`` (rank 0 reads; every rank gets the answer, or the error)."""
-    done, error = set(), None
+def _done(out_dir: str, plan: Plan, comm: MPI.Comm) -> tuple[set[str], set[str]]:
+    """The folders of the variants that a sweep of the same scene and parameters left in
+    ``out_dir`` done, and those it left stopped with other values (rank 0 reads; every rank gets
+    the answer, or the error)."""
+    found, error = (set(), set()), None
     if comm.rank == 0:
         try:
-            done = _done_on_disk(out_dir, plan)
+            found = _done_on_disk(out_dir, plan)
         except SceneError as failure:
             error = str(failure)
-    done, error = comm.bcast((done, error), root=0)
+    found, error = comm.bcast((found, error), root=0)
     if error:
         raise SceneError(error)
-    return done
+    return found
 
 
 def _varied(record: dict[str, Any]) -> str:
@@ -153,10 +156,10 @@ def _varied(record: dict[str, Any]) -> str:
     return " x ".join(names)
 
 
-def _done_on_disk(out_dir: str, plan: Plan) -> set[str]:
+def _done_on_disk(out_dir: str, plan: Plan) -> tuple[set[str], set[str]]:
     path = os.path.join(out_dir, "sweep.json")
     if not os.path.isfile(path):
-        return set()  # nothing was swept here: every variant runs
+        return set(), set()  # nothing was swept here: every variant runs
     record = plan.record()
     try:
         with open(path) as f:
@@ -170,18 +173,18 @@ def _done_on_disk(out_dir: str, plan: Plan) -> set[str]:
     if _varied(swept) != _varied(record):
         raise SceneError(f"{out_dir}: cannot resume: the sweep in it varied {_varied(swept)}, not "
                          f"{_varied(record)}; give a new --out")
-    done = set()
+    done, stale = set(), set()
     for folder, overrides in record["variants"].items():
         try:
             state = _summary(os.path.join(out_dir, folder)).get("state")
         except (OSError, ValueError, AttributeError):
             continue  # not started: it runs
-        if state == "done" and swept["variants"].get(folder) != overrides:
+        same = swept["variants"].get(folder) == overrides
+        if state == "done" and not same:
             raise SceneError(f"{out_dir}: cannot resume: variant {folder} was done with "
                              f"{_values(swept['variants'].get(folder))}, not {_values(overrides)}; give a new --out")
-        if state == "done":
-            done.add(folder)
-    return done
+        (done if state == "done" else stale if not same else set()).add(folder)
+    return done, stale
 
 
 def _values(overrides: dict[str, float] | None) -> str:
