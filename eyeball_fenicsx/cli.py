@@ -1,4 +1,6 @@
-"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [--resume] [PETSc options]``.
+"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [--resume] [PETSc options]``, and
+``eyeball-fenicsx sweep SCENE.toml --parameter P --values V... [--parameter Q --values W...]
+[--range R LOW HIGH]... --out DIR [--resume]`` (scene/sweep.py).
 
 Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid (or a
 command-line option is unknown, or the checkpoint to resume is damaged or another scene's);
@@ -55,32 +57,57 @@ def _fail(code: int, message: object) -> int:
     return code
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one-line SceneErrors (exit 2), not a usage message."""
+
+    def error(self, message: str):  # type: ignore[override]
+        raise SceneError(f"{self.prog}: {message} (see --help)")
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="eyeball-fenicsx", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="eyeball-fenicsx", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     run = commands.add_parser("run", help="run a scene TOML file")
     run.add_argument("scene")
     run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf, checkpoint/)")
     run.add_argument("--resume", action="store_true", help="continue from the checkpoint in the output folder")
-    sweep = commands.add_parser("sweep", help="run a scene over values of one parameter (CSV + PNG)")
+    sweep = commands.add_parser("sweep", help="run a scene over a grid of parameter values, with bands over "
+                                "ranges of constants (CSV + PNG)",
+                                usage="eyeball-fenicsx sweep SCENE --parameter P --values V [V ...] [--parameter Q "
+                                "--values W [W ...]] [--range R LOW HIGH]... --out DIR [--resume]")
     sweep.add_argument("scene")
-    sweep.add_argument("--parameter", required=True, help="dotted path into the scene, e.g. band.0.reduction")
-    sweep.add_argument("--values", required=True, nargs="+", type=float)
+    sweep.add_argument("--parameter", action="append", default=[], help="dotted path into the scene, e.g. "
+                       "band.0.reduction; repeat it, each with its --values, for a grid")
+    # the counts of values and ends are checked by the sweep (sweep_plan.py), which names the scene
+    sweep.add_argument("--values", action="append", default=[], nargs="*", help="the parameter's values")
+    sweep.add_argument("--range", action="append", default=[], nargs="+", metavar=("R", "LOW HIGH"),
+                       help="R LOW HIGH: an uncertain constant and its range; every grid point also runs at the "
+                       "corners of the ranges' box, and bands.csv gives each prediction's smallest and largest "
+                       "value there")
     sweep.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.png, one folder a run)")
     sweep.add_argument("--resume", action="store_true", help="skip the runs that are done, resume the one that "
                        "was stopped")
     return parser
 
 
+def _sweep(args: argparse.Namespace) -> None:
+    """The sweep command: each --parameter with its --values, in the order given."""
+    if len(args.parameter) != len(args.values):
+        raise SceneError(f"{args.scene}: sweep: {len(args.parameter)} --parameter but {len(args.values)} --values: "
+                         "give each --parameter its --values")
+    from .scene.sweep import run_sweep
+    run_sweep(args.scene, list(zip(args.parameter, args.values)), args.out, resume=args.resume,
+              ranges=args.range)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args, petsc = _parser().parse_known_args(argv)
     logging.getLogger().addFilter(_warnings_only)
     print_on_rank0()  # the load increments, on stdout (rank 0)
     try:
+        args, petsc = _parser().parse_known_args(argv)
         _petsc_options(petsc)
         if args.command == "sweep":
-            from .scene.sweep import run_sweep
-            run_sweep(args.scene, args.parameter, args.values, args.out, resume=args.resume)
+            _sweep(args)
             return 0
         from .scene.loader import load_scene
         scene = load_scene(args.scene)

@@ -150,3 +150,5 @@ def test_readable_labels():
     assert label("band.0.reduction") == "band 1: circumference reduction (mm)"
     assert label("mesh.band_width") == "band width (mm)"
     assert label("eye.something_new") == "eye / something_new"
+    assert label("materials.sclera.c.10") == "sclera: c10 (MPa)"  # a tissue's constant, as a sweep's range names it
+    assert label("materials.ciliary_body.c10") == "ciliary body: c10 (MPa)"

@@ -1,7 +1,8 @@
 """Invalid scenes and meshes beyond the core's catalogue in tests/test_scenes.py (issue 7): cavities,
 contact, sutures and the buckle's sutures, bands, steps, the eye measures, the eye builders'
 parameters and mesh files; then (issue 19) the contact settings, the retinal break and drainage,
-tissue sets, the detachment, the tire's position, the solver and the planning sweep's inputs.
+tissue sets, the detachment, the tire's position, the solver and the planning sweep's inputs; then
+(issue 18) the planning sweep's grid and ranges.
 
 Each case is run as a user runs it, ``python3 -m eyeball_fenicsx run scene.toml --out DIR`` (or
 ``sweep scene.toml --parameter ... --values ... --out DIR``) in a child process (a fresh MPI
@@ -68,6 +69,11 @@ def tire(keys, parameters=""):
 def sweep(text, names, parameter, *values):
     """A case of the planning sweep of the scene ``text`` over ``values`` of ``parameter``."""
     return text, names, {}, ["sweep", "--parameter", parameter, "--values", *values]
+
+
+def sweep_with(text, names, *options):
+    """A case of the planning sweep of the scene ``text`` with its command-line ``options``."""
+    return text, names, {}, ["sweep", *options]
 
 
 def msh22(names, elements):
@@ -281,7 +287,7 @@ CASES = {
                          ["scene.toml: mesh = 'block' is not a table"]),
     # the planning sweep (fixed: a value, a table or an array index was accepted, or the message
     # named no file, or the variants before a bad one ran first)
-    "sweep-value-nan": sweep(SOLID + PRESSURE, ["sweep of 'pressure.0.value'", "finite numbers, got nan"],
+    "sweep-value-nan": sweep(SOLID + PRESSURE, ["sweep of 'pressure.0.value'", "finite numbers, got 'nan'"],
                              "pressure.0.value", "0.01", "nan"),
     "sweep-of-a-table": sweep(SOLID + PRESSURE, ["sweep", "parameter 'pressure.0' names a table, not a value"],
                               "pressure.0", "1"),
@@ -291,6 +297,45 @@ CASES = {
                                                      "indexed from 0"], "pressure.-1.value", "0.01"),
     "sweep-invalid-variant": sweep(SOLID + PRESSURE, ["[materials.solid]", "c10 must be positive, got -1.0",
                                                       "variant 01"], "materials.solid.c10", "0.5", "-1"),
+    # the grid and the ranges of the planning sweep (issue 18)
+    "sweep-grid-unknown-parameter": sweep_with(SOLID + PRESSURE, ["sweep", "'band.0.reduction' is not in the scene"],
+                                               "--parameter", "pressure.0.value", "--values", "0.01", "0.02",
+                                               "--parameter", "band.0.reduction", "--values", "4"),
+    "sweep-grid-value-not-a-number": sweep_with(SOLID + PRESSURE, ["sweep of 'materials.solid.c10'",
+                                                                   "finite numbers, got 'stiff'"],
+                                                "--parameter", "pressure.0.value", "--values", "0.01",
+                                                "--parameter", "materials.solid.c10", "--values", "0.5", "stiff"),
+    "sweep-grid-duplicate-parameter": sweep_with(SOLID + PRESSURE, ["sweep", "'pressure.0.value' is given twice"],
+                                                 "--parameter", "pressure.0.value", "--values", "0.01",
+                                                 "--parameter", "pressure.0.value", "--values", "0.02"),
+    "sweep-grid-no-values": sweep_with(SOLID + PRESSURE, ["sweep of 'pressure.0.value'", "one or more values, got []"],
+                                       "--parameter", "pressure.0.value", "--values"),
+    "sweep-grid-parameter-without-values": sweep_with(SOLID + PRESSURE, ["sweep", "2 --parameter but 1 --values"],
+                                                      "--parameter", "pressure.0.value", "--values", "0.01",
+                                                      "--parameter", "materials.solid.c10"),
+    "sweep-grid-repeated-value": sweep_with(SOLID + PRESSURE, ["sweep of 'pressure.0.value'", "0.01 is given twice"],
+                                            "--parameter", "pressure.0.value", "--values", "0.01", "0.02", "0.01"),
+    "sweep-nothing-to-sweep": sweep_with(SOLID, ["sweep", "give a parameter and its values", "or a range"]),
+    "sweep-range-low-above-high": sweep_with(SOLID, ["sweep: range of 'materials.solid.c10'",
+                                                     "low end 0.8 must be below the high end 0.5"],
+                                             "--range", "materials.solid.c10", "0.8", "0.5"),
+    "sweep-range-empty": sweep_with(SOLID, ["range of 'materials.solid.c10'", "low end 0.5 must be below"],
+                                    "--range", "materials.solid.c10", "0.5", "0.5"),
+    "sweep-range-not-a-number": sweep_with(SOLID, ["range of 'materials.solid.c10'", "finite numbers, got 'high'"],
+                                           "--range", "materials.solid.c10", "0.5", "high"),
+    "sweep-range-one-end": sweep_with(SOLID, ["range of 'materials.solid.c10'", "its low and its high end",
+                                              "['0.5']"], "--range", "materials.solid.c10", "0.5"),
+    "sweep-range-of-a-string": sweep_with(SOLID, ["sweep of 'materials.solid.model'", "'neo-hooke', not a number"],
+                                          "--range", "materials.solid.model", "1", "2"),
+    "sweep-range-also-a-parameter": sweep_with(SOLID, ["'materials.solid.c10' is given twice", "or as a range"],
+                                               "--parameter", "materials.solid.c10", "--values", "0.5",
+                                               "--range", "materials.solid.c10", "0.4", "0.6"),
+    "sweep-range-tissue-set-without-the-key": sweep_with('tissues = "calibrated"\n' + SOLID,  # the set's sclera is
+                                                         ["sweep", "'materials.sclera.c10' is not in the scene",
+                                                          "that table has ['c', 'model']"],  # Mooney-Rivlin: c.10
+                                                         "--range", "materials.sclera.c10", "0.5", "0.8"),
+    "sweep-range-invalid-corner": sweep_with(SOLID, ["[materials.solid]", "c10 must be positive, got -0.1",
+                                                     "variant 00-l"], "--range", "materials.solid.c10", "-0.1", "0.5"),
 }
 
 

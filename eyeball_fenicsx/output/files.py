@@ -115,12 +115,15 @@ def save_figure_atomic(figure, path: str, dpi: int = 150) -> None:
     os.replace(tmp, path)
 
 
-def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xticklabels: list[str] | None = None) -> None:
+def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xticklabels: list[str] | None = None,
+                bands: dict[str, tuple[list, list]] | None = None, band_label: str = "") -> None:
     """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank).
 
     Args:
         curves: {title: y values}.
         xticklabels: labels of the x values (step names), or None for numbers.
+        bands: {title: (lower values, upper values)}: a shaded band about the curve of that
+            title, named ``band_label`` in its legend.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -130,6 +133,9 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
     figure, axes = plt.subplots(lines, columns, figsize=(4 * columns, 3 * lines), squeeze=False)
     for ax, (name, y) in zip(axes.ravel(), curves.items()):
         ax.plot(x, y, "o-")
+        if bands and name in bands:
+            ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
+            ax.legend(fontsize=7)
         ax.set_xlabel(xlabel)
         ax.set_title(name, fontsize=9)
         if xticklabels is not None:

@@ -1,7 +1,8 @@
 """Readable names for the figures of summary.json, for plots, tables and reports.
 
 A flattened key (``eye.max_mises_MPa.band``, ``band.0.reduction``) becomes what a surgeon reads
-("largest von Mises stress, band (MPa)", "band 1: reduction"). Keys this module does not know
+("largest von Mises stress, band (MPa)", "band 1: reduction"; a tissue's constant
+``materials.sclera.c.10``: "sclera: c10 (MPa)"). Keys this module does not know
 keep their own text, with the dots shown as " / ", so a new measure is never hidden.
 """
 from __future__ import annotations
@@ -45,9 +46,11 @@ def label(key: str) -> str:
             return f"largest von Mises stress, {parts[2].replace('_', ' ')} (MPa)"
         if parts[1] in MEASURES and len(parts) == 2:
             return MEASURES[parts[1]]
+    if parts[0] == "materials" and len(parts) == 4 and parts[2] == "c":  # a Mooney-Rivlin constant c_rs
+        return f"{parts[1].replace('_', ' ')}: c{parts[3]} (MPa)"
     if parts[-1] in PARAMETERS:
         owner = [p if not p.isdigit() else str(int(p) + 1) for p in parts[:-1]]
-        owner = [p for p in owner if p not in ("mesh",)]
+        owner = [p.replace("_", " ") for p in owner if p not in ("mesh", "materials")]
         text = PARAMETERS[parts[-1]]
         return f"{' '.join(owner)}: {text}" if owner else text
     return " / ".join(parts)

@@ -24,7 +24,8 @@ Extensions beyond the contract (documented in README.md):
   that step, removing ``drain_fraction`` (default 0.98) of the liquid it then holds;
 * ``[[injection]]`` (``cavity``, ``volume``, ``step``): liquid added or removed in a step;
 * ``tissues = "seed" | "calibrated"``: the eye's materials from a tissue set
-  (eyeball_fenicsx/tissues/), which the scene's own ``[materials.<region>]`` tables override;
+  (eyeball_fenicsx/tissues/), which the scene's own ``[materials.<region>]`` tables override
+  (an override of ``materials.<region>...`` reaches the set's table);
 * ``[[contact]] smoothing`` (mm): the penalty law smoothed over that length (contact/law.py);
   ``symmetry`` (axes): the model's symmetry planes, where the master's normals lie in the plane;
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
@@ -48,7 +49,7 @@ Extensions beyond the contract (documented in README.md):
 """
 import os
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from mpi4py import MPI
@@ -59,6 +60,7 @@ from . import solid_tables as solid
 from .overrides import set_parameter
 from .scene import Scene
 from .tables import Reading, Table
+from .tissues import tables_for
 
 # every top-level key of a scene file and its parser, in the order they are read
 TABLES: dict[str, Callable[[Reading], None]] = {
@@ -77,7 +79,7 @@ def load_scene(path: str, comm: MPI.Comm = MPI.COMM_WORLD, overrides: Mapping[st
         overrides: {dotted path: value} replacing entries of the file (``"mesh.n_circ"``),
             as a sweep does (overrides.py).
     """
-    data = _parsed(path)
+    data = parsed_scene(path, overrides or {})
     for key, value in (overrides or {}).items():
         set_parameter(data, key, value)
     reading = Reading(path, data, comm, top=Table(data, path, TABLES))
@@ -88,15 +90,22 @@ def load_scene(path: str, comm: MPI.Comm = MPI.COMM_WORLD, overrides: Mapping[st
                  reading.settings, reading.element, observers=reading.observers)
 
 
-def _parsed(path: str) -> dict:
-    """The scene file's TOML as a dict."""
+def parsed_scene(path: str, parameters: Iterable[str] = ()) -> dict:
+    """The scene file's TOML as a dict, where each of the dotted ``parameters`` can be found.
+
+    A parameter ``materials.<region>....`` of a region the file leaves to its tissue set
+    (``tissues = "calibrated"``) gets the set's table copied into the file's ``[materials]``,
+    so that an override reaches the set's constants (tissues.tables_for).
+    """
     if not os.path.isfile(path):
         raise SceneError(f"scene file {path} does not exist")
     try:
         with open(path, "rb") as f:
-            return tomllib.load(f)
+            data = tomllib.load(f)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
         raise SceneError(f"{path}: not valid TOML: {error}") from None
+    tables_for(data, parameters, path)
+    return data
 
 
 def _check_against_mesh(reading: Reading) -> None:

@@ -1,99 +1,133 @@
-"""Planning sweeps: run one scene over values of one parameter and tabulate what it predicts.
+"""Planning sweeps: run one scene over a grid of parameter values and tabulate what it predicts,
+with bands over ranges of uncertain constants.
 
-    eyeball-fenicsx sweep SCENE.toml --parameter band.0.reduction --values 2 4 6 8 --out DIR
+    eyeball-fenicsx sweep SCENE.toml --parameter band.0.reduction --values 4 6 8 \\
+        [--parameter mesh.band_width --values 2 2.5 3] [--range materials.sclera.c.10 0.5 0.8] --out DIR
 
-The parameter is a dotted path to a number of the scene file (table keys, and array indices for
-``[[...]]`` tables), replaced in each variant by ``load_scene``'s overrides (overrides.py). The
-inputs are checked before anything runs: the values must be finite numbers, the parameter a
-number of the file, and every variant a valid scene (each is read, its mesh built, first).
-Each variant runs in the same MPI job (``DIR/<k>/summary.json``); a variant that does not
-converge is a row with ``ok = false``. DIR/sweep.csv holds the final "eye" predictions of
-every variant and DIR/sweep.png plots them against the parameter. DIR/sweep.json records what
-was swept (the scene file's SHA-256, the parameter, the values).
+What is run (the grid, the corners of the ranges' box) is sweep_plan.py's. Every input is checked
+before anything runs: the parameters and values (sweep_plan.plan_sweep), then every variant, read
+as a scene and its mesh built, one at a time and released (a variant's Scene is built again when
+it runs: the check then costs a fraction of a second a variant, and the memory does not grow with
+the grid). The variants run in the same MPI job, each in its folder ``DIR/<k>`` (grid point k)
+or ``DIR/<k>-<corner>``; a variant that does not converge is a row with ``ok = false``.
+
+DIR/sweep.csv holds the final predictions of each grid point's own variant, one row a point;
+with ranges, DIR/bands.csv holds each point's smallest and largest value of every prediction over
+the corners (``<column>.min``, ``<column>.max``; empty where a corner did not converge);
+DIR/sweep.png draws them (output/sweep_plots.py); DIR/sweep.json records the scene file's SHA-256, the
+grid, the ranges and each folder's overrides.
 
 With ``resume``, a variant whose summary.json says ``"state": "done"`` is not run again (its
 row is read from that summary) and every other one resumes from its checkpoint
-(``Scene.run(out, resume=True)``); the scene file and the parameter must be those of
-sweep.json, and a variant done with another value is an error, not a row.
+(``Scene.run(out, resume=True)``); the scene file and the swept parameters must be those of
+sweep.json, and a variant done with other values is an error, not a row. A variant stopped with
+other values (the grid changed) starts again from its first step.
 """
-import hashlib
+import gc
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from mpi4py import MPI
 
-from ..checks import is_number
 from ..errors import ConvergenceError, SceneError
-from ..output.files import flatten, plot_curves, write_json_atomic, write_text_atomic
-from ..output.labels import label
-from .loader import _parsed, load_scene
-from .overrides import entry
-from .scene import Scene
+from ..output.files import flatten, write_json_atomic, write_text_atomic
+from ..output.sweep_plots import numeric_columns, plot_sweep
+from .loader import load_scene
+from .sweep_plan import Plan, Variant, plan_sweep
 
 
-def run_sweep(scene_path: str, parameter: str, values: Sequence[Any], out_dir: str,
-              comm: MPI.Comm = MPI.COMM_WORLD, resume: bool = False) -> list[dict[str, Any]]:
-    """Run the variants; write sweep.csv and sweep.png; return the rows.
+def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mapping[str, Sequence[Any]],
+              out_dir: str, comm: MPI.Comm = MPI.COMM_WORLD, resume: bool = False,
+              ranges: Sequence[tuple[str, Any, Any]] = ()) -> list[dict[str, Any]]:
+    """Run the variants; write sweep.csv, sweep.png (and bands.csv); return sweep.csv's rows.
+
+    Args:
+        grid: [(parameter, values)] or {parameter: values}: the grid is every combination.
+        ranges: [(parameter, low, high)]: each grid point also runs at the box's corners.
 
     Raises:
-        SceneError: before any variant runs, if the values are not finite numbers, the parameter
-            is not a number of the scene file, a variant's scene is invalid or, with ``resume``,
-            DIR holds another sweep.
+        SceneError: before any variant runs, if an input is invalid (sweep_plan.plan_sweep), a
+            variant's scene is invalid or, with ``resume``, DIR holds another sweep.
     """
-    record = _checked(scene_path, parameter, values)
-    done = _done(out_dir, record, comm) if resume else set()
-    scenes = {}
-    for k, value in enumerate(values):
-        if k not in done:
-            try:
-                scenes[k] = load_scene(scene_path, comm, overrides={parameter: value})
-            except SceneError as error:
-                raise SceneError(f"{error} (the sweep's variant {k:02d}, {parameter} = {value!r})") from None
-    write_json_atomic(os.path.join(out_dir, "sweep.json"), record, comm)
-    rows = []
-    for k, value in enumerate(values):
-        out = _folder(out_dir, k)
-        try:
-            summary, ok = (_summary(out), True) if k in done else _run(scenes.pop(k), out, resume)
-        except SceneError as error:  # found while building (probes, cavities) or resuming: say which file
-            raise SceneError(f"{scene_path}: {error} (the sweep's variant {k:02d}, {parameter} = {value!r})") from None
+    plan = plan_sweep(scene_path, grid, ranges)
+    variants = plan.variants()
+    done, stale = _done(out_dir, plan, comm) if resume else (set(), set())
+    for variant in variants:
+        if variant.folder not in done:
+            _load(plan, variant, comm)  # checked, then released
+            gc.collect()
+    write_json_atomic(os.path.join(out_dir, "sweep.json"), plan.record(), comm)
+    rows: dict[str, dict[str, Any]] = {}
+    points = plan.points()
+    for variant in variants:
+        out = os.path.join(out_dir, variant.folder)
+        again = resume and variant.folder not in stale
+        summary, ok = (_summary(out), True) if variant.folder in done else _run(plan, variant, out, again, comm)
         final = summary["steps"][-1] if summary["steps"] else {}
         measured = {key: v for key, v in final.items() if key not in ("name", "increments")}
-        rows.append({parameter: value, "ok": ok, "wall_s": summary["wall_s"], **flatten(measured)})
-    columns = list(dict.fromkeys(key for row in rows for key in row))
-    lines = [",".join(columns)] + [",".join(str(row.get(c, "")) for c in columns) for row in rows]
-    write_text_atomic(os.path.join(out_dir, "sweep.csv"), "\n".join(lines) + "\n", comm)
+        rows[variant.folder] = {**points[variant.point], "ok": ok, "wall_s": summary["wall_s"],
+                                **flatten(measured)}
+    table = [rows[v.folder] for v in variants if not v.corner]
+    write_text_atomic(os.path.join(out_dir, "sweep.csv"), _csv(table), comm)
+    bands = _bands(plan, variants, rows) if plan.ranges else None
+    if bands is not None:
+        write_text_atomic(os.path.join(out_dir, "bands.csv"), _csv(bands), comm)
     if comm.rank == 0:
-        _plot(rows, parameter, os.path.join(out_dir, "sweep.png"))
+        plot_sweep(out_dir, table, plan.grid, bands, plan.ranges)
     comm.barrier()
-    return rows
+    return table
 
 
-def _checked(scene_path: str, parameter: str, values: Sequence[Any]) -> dict[str, Any]:
-    """What the sweep is (sweep.json), once its inputs are checked."""
-    data = _parsed(scene_path)
-    where = f"{scene_path}: sweep of {parameter!r}"
+def _located(variant: Variant, error: SceneError) -> SceneError:
+    values = ", ".join(f"{p} = {v!r}" for p, v in variant.overrides.items())
+    return SceneError(f"{error} (the sweep's variant {variant.folder}, {values})")
+
+
+def _load(plan: Plan, variant: Variant, comm: MPI.Comm):
     try:
-        parent, key = entry(data, parameter)
+        return load_scene(plan.scene, comm, overrides=variant.overrides)
     except SceneError as error:
-        raise SceneError(f"{scene_path}: sweep: {error}") from None
-    current = parent[key]  # type: ignore[index]
-    if not is_number(current):
-        raise SceneError(f"{where}: the scene has {parameter} = {current!r}, not a number: a sweep varies a number")
-    if isinstance(values, (str, bytes)) or not isinstance(values, Sequence) or not values:
-        raise SceneError(f"{where}: give one or more values, got {values!r}")
-    wrong = [value for value in values if not is_number(value)]
-    if wrong:
-        raise SceneError(f"{where}: the values must be finite numbers, got {wrong[0]!r}")
-    with open(scene_path, "rb") as f:
-        digest = hashlib.sha256(f.read()).hexdigest()
-    return {"scene": digest, "parameter": parameter, "values": [float(value) for value in values]}
+        raise _located(variant, error) from None
 
 
-def _folder(out_dir: str, k: int) -> str:
-    return os.path.join(out_dir, f"{k:02d}")
+def _run(plan: Plan, variant: Variant, out: str, resume: bool, comm: MPI.Comm) -> tuple[dict, bool]:
+    """Run one variant (with ``resume``, from its checkpoint if it has one): its summary, and
+    whether it converged."""
+    scene = _load(plan, variant, comm)
+    try:
+        return scene.run(out, resume=resume), True
+    except ConvergenceError:
+        return _summary(out), False
+    except SceneError as error:  # found while building (probes, cavities) or resuming: say which file
+        raise _located(variant, SceneError(f"{plan.scene}: {error}")) from None
+
+
+def _csv(rows: list[dict[str, Any]]) -> str:
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+    lines = [",".join(columns)] + [",".join(_cell(row.get(c)) for c in columns) for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _cell(value: Any) -> str:
+    return "" if value is None else str(value)
+
+
+def _bands(plan: Plan, variants: list[Variant], rows: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per grid point: its parameters, how many corners converged, and the smallest and largest
+    value of each numeric prediction over the corners (None unless every corner converged)."""
+    bands = []
+    for k, point in enumerate(plan.points()):
+        corners = [rows[v.folder] for v in variants if v.point == k and v.corner]
+        whole = all(row["ok"] for row in corners)
+        band: dict[str, Any] = {**point, "corners": len(corners), "corners_ok": sum(row["ok"] for row in corners)}
+        for column in numeric_columns(corners, exclude=(*point, "ok", "wall_s")):
+            values = [row[column] for row in corners]
+            band[f"{column}.min"] = min(values) if whole else None
+            band[f"{column}.max"] = max(values) if whole else None
+        bands.append(band)
+    return bands
 
 
 def _summary(out: str) -> dict:
@@ -101,66 +135,57 @@ def _summary(out: str) -> dict:
         return json.load(f)
 
 
-def _done(out_dir: str, record: dict[str, Any], comm: MPI.Comm) -> set[int]:
-    """The variants that a sweep of the same scene and parameter left done in ``out_dir``
-    (rank 0 reads; every rank gets the answer, or the error)."""
-    done, error = set(), None
+def _done(out_dir: str, plan: Plan, comm: MPI.Comm) -> tuple[set[str], set[str]]:
+    """The folders of the variants that a sweep of the same scene and parameters left in
+    ``out_dir`` done, and those it left stopped with other values (rank 0 reads; every rank gets
+    the answer, or the error)."""
+    found, error = (set(), set()), None
     if comm.rank == 0:
         try:
-            done = _done_on_disk(out_dir, record)
+            found = _done_on_disk(out_dir, plan)
         except SceneError as failure:
             error = str(failure)
-    done, error = comm.bcast((done, error), root=0)
+    found, error = comm.bcast((found, error), root=0)
     if error:
         raise SceneError(error)
-    return done
+    return found
 
 
-def _done_on_disk(out_dir: str, record: dict[str, Any]) -> set[int]:
+def _varied(record: dict[str, Any]) -> str:
+    names = [repr(p) for p in record["parameters"]] + [f"the range of {r[0]!r}" for r in record["ranges"]]
+    return " x ".join(names)
+
+
+def _done_on_disk(out_dir: str, plan: Plan) -> tuple[set[str], set[str]]:
     path = os.path.join(out_dir, "sweep.json")
     if not os.path.isfile(path):
-        return set()  # nothing was swept here: every variant runs
+        return set(), set()  # nothing was swept here: every variant runs
+    record = plan.record()
     try:
         with open(path) as f:
             before = json.load(f)
-        swept = before["scene"], before["parameter"], [float(v) for v in before["values"]]
+        swept = {key: before[key] for key in ("scene", "parameters", "ranges", "variants")}
     except (OSError, ValueError, KeyError, TypeError):
         raise SceneError(f"{path} is not a sweep's record: resume a sweep in its own folder") from None
-    if swept[0] != record["scene"]:
+    if swept["scene"] != record["scene"]:
         raise SceneError(f"{out_dir}: cannot resume: the scene file has changed since the sweep in it; give a new "
                          "--out")
-    if swept[1] != record["parameter"]:
-        raise SceneError(f"{out_dir}: cannot resume: the sweep in it varied {swept[1]!r}, not "
-                         f"{record['parameter']!r}; give a new --out")
-    done, before = set(), dict(enumerate(swept[2]))
-    for k, value in enumerate(record["values"]):
+    if _varied(swept) != _varied(record):
+        raise SceneError(f"{out_dir}: cannot resume: the sweep in it varied {_varied(swept)}, not "
+                         f"{_varied(record)}; give a new --out")
+    done, stale = set(), set()
+    for folder, overrides in record["variants"].items():
         try:
-            state = _summary(_folder(out_dir, k)).get("state")
+            state = _summary(os.path.join(out_dir, folder)).get("state")
         except (OSError, ValueError, AttributeError):
             continue  # not started: it runs
-        if state == "done" and before.get(k) != value:
-            raise SceneError(f"{out_dir}: cannot resume: variant {k:02d} was done with {record['parameter']} = "
-                             f"{before.get(k)}, not {value!r}; give a new --out")
-        if state == "done":
-            done.add(k)
-    return done
+        same = swept["variants"].get(folder) == overrides
+        if state == "done" and not same:
+            raise SceneError(f"{out_dir}: cannot resume: variant {folder} was done with "
+                             f"{_values(swept['variants'].get(folder))}, not {_values(overrides)}; give a new --out")
+        (done if state == "done" else stale if not same else set()).add(folder)
+    return done, stale
 
 
-def _run(scene: Scene, out: str, resume: bool) -> tuple[dict, bool]:
-    """Run one variant (with ``resume``, from its checkpoint if it has one): its summary, and
-    whether it converged."""
-    try:
-        return scene.run(out, resume=resume), True
-    except ConvergenceError:
-        return _summary(out), False
-
-
-def _plot(rows: list[dict[str, Any]], parameter: str, path: str) -> None:
-    """The numeric columns against the parameter (the "eye" ones only, if any)."""
-    numeric = [c for c in rows[0] if c not in (parameter, "ok", "wall_s")
-               and all(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in rows)]
-    if any(c.startswith("eye.") for c in numeric):
-        numeric = [c for c in numeric if c.startswith("eye.")]
-    if numeric:
-        curves = {label(c): [r[c] for r in rows] for c in numeric}
-        plot_curves(path, [r[parameter] for r in rows], curves, label(parameter))
+def _values(overrides: dict[str, float] | None) -> str:
+    return ", ".join(f"{p} = {v!r}" for p, v in (overrides or {}).items()) or "other values"

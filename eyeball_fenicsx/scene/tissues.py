@@ -4,10 +4,13 @@ A set is a TOML file eyeball_fenicsx/tissues/<name>.toml of ``[materials.<region
 each constant with its source in the file's comments ("seed": the seed's constants, Sun &
 Makinouchi; "calibrated": living human eyes, the sclera fitted to Pallikaris et al.'s ocular
 rigidity, IOVS 2005;46:409). The scene's own ``[materials.<region>]`` tables replace or add
-to the set's.
+to the set's; a dotted override ``materials.<region>...`` of a region left to the set
+reaches the set's table (``tables_for``).
 """
+import copy
 import os
 import tomllib
+from collections.abc import Iterable
 
 from ..errors import SceneError
 
@@ -27,3 +30,19 @@ def tissue_set(name: str | None, path: str) -> dict[str, tuple[dict, str]]:
         materials = tomllib.load(f)["materials"]
     return {region: (t, f"{path}: tissues = {name!r} ({source}): [materials.{region}]")
             for region, t in materials.items()}
+
+
+def tables_for(data: dict, parameters: Iterable[str], path: str) -> None:
+    """Copy into a parsed scene ``data`` the tissue set's ``[materials.<region>]`` table of each
+    dotted parameter ``materials.<region>...`` whose region the scene leaves to its set, so that
+    the parameter names an entry of ``data`` (the planning sweep's ranges of tissue constants)."""
+    materials, name = data.get("materials", {}), data.get("tissues")
+    if not isinstance(materials, dict) or not isinstance(name, str):
+        return  # no set, or a file the loader refuses with its own message
+    for parameter in parameters:
+        parts = parameter.split(".")
+        if len(parts) > 2 and parts[0] == "materials" and parts[1] not in materials:
+            tables = tissue_set(name, path)
+            if parts[1] in tables:
+                materials[parts[1]] = copy.deepcopy(tables[parts[1]][0])
+                data["materials"] = materials
