@@ -168,11 +168,11 @@ def stress_surface_png(corners: np.ndarray, regions: list[str], values: np.ndarr
     rgba = np.where(buckle[:, None], buckle_map(buckle_norm(values)), eye_map(eye_norm(values)))
     rgba[:, :3] *= light[:, None]
 
-    figure = plt.figure(figsize=(8, 6.4))
-    ax = figure.add_axes((0.0, 0.0, 0.7, 0.92), projection="3d")
+    figure = plt.figure(figsize=(8, 6))
+    ax = figure.add_axes((-0.04, -0.04, 0.78, 1.0), projection="3d")
     ax.add_collection3d(Poly3DCollection(corners, facecolors=rgba, edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
     low, high = corners.reshape(-1, 3).min(axis=0), corners.reshape(-1, 3).max(axis=0)
-    centre, half = 0.5 * (low + high), 0.42 * (high - low).max()
+    centre, half = 0.5 * (low + high), 0.36 * (high - low).max()
     ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half),
            zlim=(centre[2] - half, centre[2] + half))
     ax.set_box_aspect((1, 1, 1))

@@ -107,10 +107,12 @@ def feature_rows(steps: list[dict]) -> dict[tuple, list]:
             for name, how in SOLVER.items()}
     flat = []
     for step in steps:
-        entry = flatten({k: step[k] for k in ("cavities", "contact", "bands") if k in step})
-        for key in [k for k in entry if k.endswith(".force.0")]:  # a force as its magnitude
-            force = [entry.pop(key[:-1] + c) for c in "012"]
-            entry[key[:-2]] = math.sqrt(sum(f * f for f in force))
+        entry = {}
+        for key, value in flatten({k: step[k] for k in ("cavities", "contact", "bands") if k in step}).items():
+            if ".force." in key:  # a force as its magnitude
+                entry[key[:key.rindex(".")]] = math.hypot(entry.get(key[:key.rindex(".")], 0.0), value)
+            else:
+                entry[key] = value
         flat.append(entry)
     keys = list(dict.fromkeys(k for e in flat for k in e if k.split(".")[-1] in FEATURE_FIGURES))
     rows.update({(k, label(k)): v for k, v in _numbers(flat, keys).items()})
