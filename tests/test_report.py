@@ -174,5 +174,5 @@ def test_a_failed_run_says_so(folder):
         assert [cell["text"] for cell in solver[0]] == ["step", "pull", "crush (not converged)"]
         rows = {row[0]["text"]: row[1:] for row in solver[1:]}
         for column, step in enumerate(summary["steps"]):
-            cell = rows["Newton iterations"][column]
+            cell = rows["their Newton iterations"][column]
             assert int(cell["attrs"]["data-value"]) == sum(i["newton_iterations"] for i in step["increments"])

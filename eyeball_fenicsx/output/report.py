@@ -46,9 +46,9 @@ log = logging.getLogger(__name__)
 FIRST = ("axial_length_change_mm", "refraction_change_D", "iop_mmHg", "buckle_height_mm", "reattached_fraction",
          "detached_area_mm2", "subretinal_volume_mm3")
 # What the solver did in a step: the key shown and how it is summed over the step's increments.
-SOLVER = {"load increments": len, "Newton iterations": lambda i: sum(x["newton_iterations"] for x in i),
-          "factorizations": lambda i: sum(x.get("factorizations", 0) for x in i),
-          "time (s)": lambda i: sum(x["wall_s"] for x in i)}
+SOLVER = {"converged load increments": len, "their Newton iterations": lambda i: sum(x["newton_iterations"] for x in i),
+          "their factorizations": lambda i: sum(x.get("factorizations", 0) for x in i),
+          "their time (s)": lambda i: sum(x["wall_s"] for x in i)}
 PREDICTIONS_NOTE = ("Changes \"from pre-op\" are from the eye after the step that fills the vitreous to its "
                     "pressure; areas and volumes are those of the model (half the eye's in a half model); the "
                     "definitions are in eyeball_fenicsx/output/measures.py.")
