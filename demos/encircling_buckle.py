@@ -30,7 +30,8 @@
 #   pressed, so this holds to a few per cent, not exactly.
 #
 # Run: `mpirun -n 2 python3 demos/encircling_buckle.py` (`EYE_N_CIRC=16` for a coarse eye);
-# summary.json and the pictures go to `DEMO_OUT` (default `out/encircling_buckle`).
+# summary.json, the pictures and the run's page, `report.html` (the predictions per step and the
+# pictures in one file, for a browser), go to `DEMO_OUT` (default `out/encircling_buckle`).
 
 # +
 import os
@@ -119,4 +120,5 @@ if comm.rank == 0 and MPI.COMM_WORLD.rank == 0:
     print(f"the buckle (after 'pressurize'): axial length "
           f"{last['axial_length_mm'] - first['axial_length_mm']:+.3f} mm, "
           f"IOP {last['iop_mmHg'] - first['iop_mmHg']:+.1f} mmHg")
+    print(f"the run's report: {os.path.join(out, 'report.html')}")
 # -

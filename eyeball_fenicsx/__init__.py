@@ -12,7 +12,7 @@ _PUBLIC = {
     "LiquidCavity": "features.cavity", "Injection": "features.cavity", "Drainage": "features.cavity",
     "Suture": "features.sutures", "BandTightening": "features.band",
     "LinearElastic": "mechanics.materials", "MooneyRivlin": "mechanics.materials", "NeoHooke": "mechanics.materials",
-    "EyeMeasures": "output.measures", "EyePictures": "output.eye_pictures",
+    "EyeMeasures": "output.measures", "EyePictures": "output.eye_pictures", "RunReport": "output.report",
     "Scene": "scene.scene", "Step": "scene.scene", "load_scene": "scene.loader",
     "SolverSettings": "system.settings",
     "load_mesh": "meshing.load", "built_mesh": "meshing.load",

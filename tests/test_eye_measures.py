@@ -198,7 +198,7 @@ def test_scene_writes_measures_and_pictures(buckled):
     if COMM.rank == 0:
         pictures = {name for name in os.listdir(out) if name.endswith(".png")}
         assert pictures == {"section_at_rest.png", "section_inflate.png", "eye_measures.png", "retina_gap_at_rest.png",
-                            "retina_gap_inflate.png"}
+                            "retina_gap_inflate.png", "surface_at_rest.png", "surface_inflate.png"}
         assert all(os.path.getsize(os.path.join(out, name)) > 10_000 for name in pictures)
 
 

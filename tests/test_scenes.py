@@ -27,7 +27,8 @@ from eyeball_fenicsx.scene.loader import load_scene
 
 COMM = MPI.COMM_WORLD
 DEMOS = os.path.join(REPO, "demos")
-OUTPUTS = {"summary.json", "fields.xdmf", "fields.h5", "checkpoint"}  # and nothing else: no temporary names left
+# and nothing else: no temporary names left
+OUTPUTS = {"summary.json", "fields.xdmf", "fields.h5", "checkpoint", "report.html"}
 
 # pieces of small scenes
 BLOCK = '[mesh]\nbuilder = "block"\ndivisions = [2, 1, 1]\n'  # two cells: one per rank

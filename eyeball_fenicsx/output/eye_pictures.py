@@ -16,8 +16,9 @@ import re
 from typing import TYPE_CHECKING
 
 import numpy as np
-from dolfinx import cpp, fem
+from dolfinx import fem
 
+from .eye_surface import OuterSurface, gather_faces, quad_nodes
 from .files import flatten, plot_curves, save_figure_atomic
 from .labels import label
 from .measures import DETACHED_GAP, EyeMeasures, polar_angle
@@ -53,32 +54,13 @@ def meridional_section(mesh_data: MeshData, tolerance: float = 1e-9, solid: Mixe
     """
     msh = mesh_data.mesh
     tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, tdim)
-    num_facets = msh.topology.index_map(tdim - 1).size_local
-    facets = np.arange(num_facets, dtype=np.int32)
-    # DOLFINx numbers a quadrilateral's vertices as a tensor product: 0, 1, 3, 2 goes round it.
-    nodes = cpp.mesh.entities_to_geometry(msh._mesh, tdim - 1, facets, False)[:, [0, 1, 3, 2]]
-    x = msh.geometry.x[nodes]
-    in_plane = np.all(np.abs(x[..., 1]) < tolerance, axis=1)
-    facet_cells = msh.topology.connectivity(tdim - 1, tdim)
-    cells = np.array([facet_cells.links(f)[0] for f in facets[in_plane]], dtype=np.int32)
-    names = {tag: name for name, tag in mesh_data.regions.items()}
-    tag_of_cell = np.zeros(msh.topology.index_map(tdim).size_local + msh.topology.index_map(tdim).num_ghosts,
-                           dtype=np.int32)
-    tag_of_cell[mesh_data.cell_tags.indices] = mesh_data.cell_tags.values
-    regions = [names.get(tag, "") for tag in tag_of_cell[cells]]
-    corners = x[in_plane]
-    if solid is not None and len(cells):  # each corner moved by u evaluated in the face's cell
-        u = solid.w.sub(0)
-        points = corners.reshape(-1, 3)
-        corners = corners + u.eval(points, np.repeat(cells, 4))[:, :3].reshape(corners.shape)
-    values = field.x.array[cells] if field is not None else np.full(len(cells), np.nan)
-    gathered = msh.comm.gather((corners[..., [0, 2]], regions, values), root=0)
-    if msh.comm.rank != 0:
+    facets = np.arange(msh.topology.index_map(tdim - 1).size_local, dtype=np.int32)
+    x = msh.geometry.x[quad_nodes(msh, facets)]
+    corners, regions, values = gather_faces(mesh_data, facets[np.all(np.abs(x[..., 1]) < tolerance, axis=1)],
+                                            solid, field)
+    if corners is None:
         return None, None, None
-    return (np.concatenate([g[0] for g in gathered]).reshape(-1, 4, 2),
-            [name for g in gathered for name in g[1]],
-            np.concatenate([g[2] for g in gathered]) if field is not None else None)
+    return corners[..., [0, 2]], regions, values if field is not None else None
 
 
 def eye_section_png(mesh_data: MeshData, path: str, title: str | None = None) -> None:
@@ -192,6 +174,12 @@ def eye_measures_png(steps: list[dict], path: str) -> None:
     plot_curves(path, list(range(1, len(rows) + 1)), curves, "step", [step["name"] for step in steps])
 
 
+def step_pictures(step: str) -> dict[str, str]:
+    """The file names of the pictures ``EyePictures`` draws after step ``step``, by kind."""
+    name = re.sub(r"[^\w.-]+", "_", step)
+    return {"surface": f"surface_{name}.png", "section": f"section_{name}.png", "retina_gap": f"retina_gap_{name}.png"}
+
+
 class EyePictures(Observer):
     """The pictures of the eye's runs (see the module docstring), drawn from ``measures``, an
     observer of the same scene that comes before this one."""
@@ -201,23 +189,25 @@ class EyePictures(Observer):
 
     def setup(self, solid: MixedSolid, problem: Problem) -> None:
         self.solid = solid
+        self._surface = OuterSurface(solid)
 
     def start(self, scene: str, out_dir: str | None) -> None:
         self.scene, self.out_dir = scene, out_dir
 
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
-        """Collective: the section coloured by the stress and the retina's gap map of a
-        converged step, as the measures just measured them."""
+        """Collective: the outer surface and the section coloured by the stress, and the retina's
+        gap map, of a converged step, as the measures just measured them."""
         if not self.out_dir or not converged:
             return
-        label = re.sub(r"[^\w.-]+", "_", step)
-        stress_section_png(self.solid, self.measures.mises, os.path.join(self.out_dir, f"section_{label}.png"),
+        files = {kind: os.path.join(self.out_dir, name) for kind, name in step_pictures(step).items()}
+        self._surface.draw(self.measures.mises, files["surface"],
+                           title=f"{self.scene}, step {step}: von Mises stress (MPa)")
+        stress_section_png(self.solid, self.measures.mises, files["section"],
                            title=f"{self.scene}, step {step}: von Mises stress (MPa)")
         X, gap = self.measures.retina_gap_map()
         if X is not None:
             retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
-                           os.path.join(self.out_dir, f"retina_gap_{label}.png"), DETACHED_GAP,
-                           title=f"{self.scene}, step {step}: the detached retina")
+                           files["retina_gap"], DETACHED_GAP, title=f"{self.scene}, step {step}: the detached retina")
 
     def finish(self, summary: dict) -> None:
         if self.out_dir and self.solid.comm.rank == 0:

@@ -24,6 +24,19 @@ MEASURES = {
     "subretinal_volume_mm3": "subretinal fluid (mm\u00b3)",
 }
 
+# The features' figures in a step's entry: {group: what it is}, {last key: its name and unit}.
+FEATURE_GROUPS = {"cavities": "liquid", "contact": "contact", "bands": "band"}
+FEATURE_FIGURES = {
+    "pressure": "pressure (MPa)",
+    "volume": "volume (mm\u00b3)",
+    "drained_volume": "drained volume (mm\u00b3)",
+    "force": "force (N)",
+    "active_points": "points in contact",
+    "max_penetration": "largest penetration (mm)",
+    "circumference": "circumference (mm)",
+    "rest_stretch": "rest length / initial length",
+}
+
 # Scene-file parameters a sweep commonly varies (dotted paths with the array index as "0").
 PARAMETERS = {
     "reduction": "circumference reduction (mm)",
@@ -48,6 +61,8 @@ def label(key: str) -> str:
             return MEASURES[parts[1]]
     if parts[0] == "materials" and len(parts) == 4 and parts[2] == "c":  # a Mooney-Rivlin constant c_rs
         return f"{parts[1].replace('_', ' ')}: c{parts[3]} (MPa)"
+    if len(parts) == 3 and parts[0] in FEATURE_GROUPS and parts[2] in FEATURE_FIGURES:
+        return f"{FEATURE_GROUPS[parts[0]]} {parts[1]}: {FEATURE_FIGURES[parts[2]]}"
     if parts[-1] in PARAMETERS:
         owner = [p if not p.isdigit() else str(int(p) + 1) for p in parts[:-1]]
         owner = [p.replace("_", " ") for p in owner if p not in ("mesh", "materials")]

@@ -8,7 +8,8 @@ read the converged state (the solid's fields, the problem's features) and add th
 the step's entry of summary.json, or write files. They never change the state. The order: the
 probes, then the reactions and the features' reports (output/reports.py), then the observers
 the scene was given (the eye measures and their pictures: output/measures.py,
-output/eye_pictures.py), then the field output of a run that writes files (output/files.py,
+output/eye_pictures.py; last, the run's page, report.html: output/report.py, which the loader adds
+to every scene file), then the field output of a run that writes files (output/files.py,
 set up by that run).
 
 A class that derives from ``Observer`` inherits methods that do nothing, and overrides those it

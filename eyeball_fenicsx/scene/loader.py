@@ -33,8 +33,8 @@ Extensions beyond the contract (documented in README.md):
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
 * ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
   ``posterior_surface``): the eye measures written under "eye" in summary.json
-  (eyeball_fenicsx/output/measures.py), and the pictures ``section_<step>.png`` and
-  ``eye_measures.png`` in the output folder; optional measures, each only when its keys are
+  (eyeball_fenicsx/output/measures.py), and the pictures ``surface_<step>.png``,
+  ``section_<step>.png`` and ``eye_measures.png`` in the output folder; optional measures, each only when its keys are
   given: ``buckle`` (the buckle's inner surface, "band_inner" or "tire_inner") with
   ``sclera`` (default "sclera_outer") for ``buckle_height_mm``, and ``retina`` and ``choroid``
   (the faces of the subretinal gap, "retina_outer" and "choroid_inner") for
@@ -55,6 +55,7 @@ from typing import Any
 from mpi4py import MPI
 
 from ..errors import SceneError
+from ..output.report import RunReport
 from . import operation_tables as operation
 from . import solid_tables as solid
 from .overrides import set_parameter
@@ -87,7 +88,7 @@ def load_scene(path: str, comm: MPI.Comm = MPI.COMM_WORLD, overrides: Mapping[st
         read(reading)
     _check_against_mesh(reading)
     return Scene(reading.name, reading.mesh, reading.materials, reading.features, reading.probes, reading.steps,
-                 reading.settings, reading.element, observers=reading.observers)
+                 reading.settings, reading.element, observers=[*reading.observers, RunReport()])
 
 
 def parsed_scene(path: str, parameters: Iterable[str] = ()) -> dict:

@@ -19,11 +19,12 @@ observe (a probe outside the mesh is an error here) and build their forms, once.
 advances each step of the load path with Newton (system/stepping.py, system/newton.py); after
 each step, converged or failed, the observers read the state: the probes, the reactions and the
 features' reports (output/reports.py), then the scene's ``observers`` (the eye measures of a
-scene file's ``[eye]`` table and their pictures: output/measures.py, output/eye_pictures.py),
-then the field output of a run with an output folder (output/files.py). They fill the step's
-entry of summary.json, which is written after every step and at the end. A second ``run``
-starts from the state the first left, with the observers ``build`` set up. Each load increment
-is logged (output/console.py prints it on rank 0).
+scene file's ``[eye]`` table and their pictures: output/measures.py, output/eye_pictures.py; a
+scene file's page of the run, last: output/report.py), then the field output of a run with an
+output folder (output/files.py). They fill the step's entry of summary.json, which is written
+after every step and at the end. A second ``run`` starts from the state the first left, with
+the observers ``build`` set up. Each load increment is logged (output/console.py prints it on
+rank 0).
 
 A run that survives: summary.json's ``"state"`` is "running" until the last step converged
 ("done", the only state with ``"ok": true``), "failed" when a step did not converge, or

@@ -1,0 +1,208 @@
+"""A 3D picture of the eye as the surgeon sees it: the deformed outer surface of the globe and its
+buckle, coloured by the von Mises stress of the element under each face, as the seed's program
+shows its results (Sun and Makinouchi, "Mises stress (MPa)" after each step of the operation).
+
+Method: the faces drawn are the owned facets of the named outer surfaces (``OUTER_SURFACES``: the
+cornea, the sclera, the optic nerve, the band's and the tire's faces but their inner ones, which
+lie on the sclera), moved by the current displacement and gathered on rank 0 with their cells'
+stress (``gather_faces``, with which the section of output/eye_pictures.py gathers its faces
+too): a surface, never the mesh. A wedge model is mirrored across the planes of its cut surfaces
+("cut_0", "cut_1") to show the whole eye. Of the globe only the faces that face the viewer are
+drawn (centroids in front of the plane through the eye's centre normal to the line of sight),
+so that matplotlib's painter's algorithm (Poly3DCollection, faces sorted by mean depth, in an
+orthographic projection, whose visible half of a sphere is exactly that) has no hidden face to
+misplace; the buckle's faces are all drawn, since its far side shows beyond the globe's outline.
+Each face is shaded by its angle to a light along the line of sight (a Lambert term,
+0.55 + 0.45 |cos|), since matplotlib 3.6 does not light coloured faces.
+
+Colour scales: the band's stress is not the tissues' (default eye: the largest 0.004 MPa against
+the sclera's 0.027 at 15 mmHg, 0.23 against 0.11 once tightened), so on one scale one of the two
+would sit in its lowest colours. The eye's tissues take the seed's rainbow (``jet``) from 0 to
+the 99th percentile of their drawn faces (a robust top: a few faces do not squeeze the others
+into the lowest colours; those above it take the top colour, and the colour bar says so);
+the buckle's bodies (``BUCKLE_REGIONS``) have a scale and a colour bar of their own (``copper``,
+from 0 to their largest face).
+"""
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING
+
+import numpy as np
+from dolfinx import cpp
+from mpi4py import MPI
+
+from .files import save_figure_atomic
+
+if TYPE_CHECKING:
+    from dolfinx import fem
+
+    from ..mechanics.solid import MixedSolid
+    from ..meshing.load import MeshData
+
+# The surfaces of eye.py and buckled_eye.py seen from outside (those a mesh lacks are skipped).
+OUTER_SURFACES = ("cornea_outer", "sclera_outer", "optic_nerve_side", "optic_nerve_end", "band_outer", "band_front",
+                  "band_back", "tire_outer", "tire_front", "tire_back", "tire_end_0", "tire_end_1")
+BUCKLE_REGIONS = ("band", "tire")
+EYE_PERCENTILE = 99.0
+# The picture's axes: its horizontal x the optic axis (model z, the cornea at +), its y the
+# model's x, its vertical the model's y (the half model's cut plane is horizontal).
+PLOT_AXES = (2, 0, 1)
+# The line of sight, in the picture's axes, from the eye towards the viewer: in front of the eye
+# and to its side, a little from above, so that the cornea, the band and the globe behind show.
+VIEW = np.array([0.55, -0.75, 0.35])
+SMALLEST_TOP = 1e-6  # MPa: the top of a colour scale over a body without stress
+
+
+def quad_nodes(msh, facets: np.ndarray) -> np.ndarray:
+    """The geometry nodes of quadrilateral facets, in cyclic order (count, 4)."""
+    # DOLFINx numbers a quadrilateral's vertices as a tensor product: 0, 1, 3, 2 goes round it.
+    return cpp.mesh.entities_to_geometry(msh._mesh, msh.topology.dim - 1, facets, False)[:, [0, 1, 3, 2]]
+
+
+def gather_faces(mesh_data: MeshData, facets: np.ndarray, solid: MixedSolid | None = None,
+                 field: fem.Function | None = None) -> tuple:
+    """Corners, region names and field values of owned quadrilateral facets, gathered on rank 0.
+
+    Collective.
+
+    Args:
+        facets: local indices of owned facets (each facet on one rank only).
+        solid: if given, the corners are moved by its current displacement (evaluated in the
+            facet's cell).
+        field: a cell-wise (DG0) function whose value each face takes (that of its cell).
+
+    Returns:
+        On rank 0, ``(corners, regions, values)``: shape ``(count, 4, 3)`` in cyclic order, the
+        region name of each face's cell, and the field's values (NaN without a field);
+        ``(None, None, None)`` elsewhere.
+    """
+    msh = mesh_data.mesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    facet_cells = msh.topology.connectivity(tdim - 1, tdim)
+    cells = np.array([facet_cells.links(f)[0] for f in facets], dtype=np.int32)
+    names = {tag: name for name, tag in mesh_data.regions.items()}
+    cell_map = msh.topology.index_map(tdim)
+    tag_of_cell = np.zeros(cell_map.size_local + cell_map.num_ghosts, dtype=np.int32)
+    tag_of_cell[mesh_data.cell_tags.indices] = mesh_data.cell_tags.values
+    regions = [names.get(tag, "") for tag in tag_of_cell[cells]]
+    corners = msh.geometry.x[quad_nodes(msh, facets)].reshape(-1, 4, 3)
+    if solid is not None and len(cells):  # each corner moved by u evaluated in the face's cell
+        u = solid.w.sub(0)
+        corners = corners + u.eval(corners.reshape(-1, 3), np.repeat(cells, 4))[:, :3].reshape(corners.shape)
+    values = field.x.array[cells] if field is not None else np.full(len(cells), np.nan)
+    gathered = msh.comm.gather((corners, regions, values), root=0)
+    if msh.comm.rank != 0:
+        return None, None, None
+    return (np.concatenate([g[0] for g in gathered]).reshape(-1, 4, 3), [name for g in gathered for name in g[1]],
+            np.concatenate([g[2] for g in gathered]))
+
+
+def outer_facets(solid: MixedSolid) -> np.ndarray:
+    """Local indices of the owned facets of the mesh's ``OUTER_SURFACES``, each once."""
+    md = solid.mesh_data
+    owned = md.mesh.topology.index_map(md.mesh.topology.dim - 1).size_local
+    facets = [md.facets(name) for name in OUTER_SURFACES if name in md.surfaces]
+    facets = np.unique(np.concatenate(facets)) if facets else np.zeros(0, dtype=np.int32)
+    return facets[facets < owned].astype(np.int32)
+
+
+def mirror_axes(solid: MixedSolid, tolerance: float = 1e-9) -> list[int]:
+    """The coordinate axes (x 0, y 1) whose planes through the optic axis hold a cut surface of a
+    wedge model: [1] for a half model (both cuts in y = 0), [0, 1] for a quarter, [] for a whole
+    eye. Collective."""
+    md = solid.mesh_data
+    msh = md.mesh
+    axes = set()
+    for name in ("cut_0", "cut_1"):
+        facets = md.facets(name) if name in md.surfaces else np.zeros(0, dtype=np.int32)
+        x = msh.geometry.x[quad_nodes(msh, facets).ravel()] if len(facets) else np.zeros((0, 3))
+        extent = _largest(msh.comm, x)
+        axes |= {axis for axis in (0, 1) if 0.0 <= extent[axis] < tolerance}
+    return sorted(axes)
+
+
+def _largest(comm: MPI.Comm, x: np.ndarray) -> np.ndarray:
+    """The largest |x| and |y| of points over the ranks (-1 where no rank has a point)."""
+    local = np.abs(x[:, :2]).max(axis=0) if len(x) else np.full(2, -1.0)
+    result = np.empty(2)
+    comm.Allreduce(local, result, op=MPI.MAX)
+    return result
+
+
+def mirrored(corners: np.ndarray, values: np.ndarray, buckle: np.ndarray, axes: list[int]) -> tuple:
+    """The faces and their copies reflected across every combination of the planes ``axes``."""
+    copies = []
+    for flips in itertools.chain.from_iterable(itertools.combinations(axes, k) for k in range(len(axes) + 1)):
+        sign = np.ones(3)
+        sign[list(flips)] = -1.0
+        copies.append(corners * sign)
+    count = len(copies)
+    return np.concatenate(copies), np.tile(values, count), np.tile(buckle, count)
+
+
+def stress_surface_png(corners: np.ndarray, regions: list[str], values: np.ndarray, path: str, axes: list[int],
+                       title: str | None = None) -> None:
+    """Draw the outer surface, mirrored across ``axes``, coloured by the von Mises stress (module
+    docstring), as a PNG. Call on one rank, with what ``gather_faces`` gathered."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib import cm, colors
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    buckle = np.array([region in BUCKLE_REGIONS for region in regions], dtype=bool)
+    corners, values, buckle = mirrored(corners, values, buckle, axes)
+    corners = corners[..., list(PLOT_AXES)]
+    view = VIEW / np.linalg.norm(VIEW)
+    front = (corners.mean(axis=1) @ view >= 0.0) | buckle
+    corners, values, buckle = corners[front], values[front], buckle[front]
+    normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 1])
+    light = 0.55 + 0.45 * np.abs(normals @ view) / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)
+    eye_values = values[~buckle]
+    eye_norm = colors.Normalize(0.0, max(float(np.percentile(eye_values, EYE_PERCENTILE)) if len(eye_values) else 0.0,
+                                         SMALLEST_TOP))
+    buckle_norm = colors.Normalize(0.0, max(float(values[buckle].max()) if buckle.any() else 0.0, SMALLEST_TOP))
+    eye_map, buckle_map = plt.get_cmap("jet"), plt.get_cmap("copper")
+    rgba = np.where(buckle[:, None], buckle_map(buckle_norm(values)), eye_map(eye_norm(values)))
+    rgba[:, :3] *= light[:, None]
+
+    figure = plt.figure(figsize=(8, 6))
+    ax = figure.add_axes((-0.04, -0.04, 0.78, 1.0), projection="3d")
+    ax.add_collection3d(Poly3DCollection(corners, facecolors=rgba, edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
+    low, high = corners.reshape(-1, 3).min(axis=0), corners.reshape(-1, 3).max(axis=0)
+    centre, half = 0.5 * (low + high), 0.36 * (high - low).max()
+    ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half),
+           zlim=(centre[2] - half, centre[2] + half))
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_axis_off()
+    ax.set_proj_type("ortho")
+    ax.view_init(elev=float(np.degrees(np.arcsin(view[2]))), azim=float(np.degrees(np.arctan2(view[1], view[0]))))
+    bars = [(eye_norm, eye_map, f"eye (MPa; top: {EYE_PERCENTILE:g}th percentile)", "max")]
+    if buckle.any():
+        bars.append((buckle_norm, buckle_map, "buckle (MPa)", "neither"))
+    for k, (norm, colour_map, text, extend) in enumerate(bars):
+        figure.colorbar(cm.ScalarMappable(norm, colour_map), cax=figure.add_axes((0.74 + 0.13 * k, 0.12, 0.025, 0.7)),
+                        extend=extend, label=f"von Mises stress, {text}")
+    if title:
+        figure.suptitle(title, fontsize=11)
+    figure.text(0.02, 0.02, ("the model mirrored to the whole eye; " if axes else "") + "the cornea to the right",
+                fontsize=8)
+    save_figure_atomic(figure, path, dpi=110)
+    plt.close(figure)
+
+
+class OuterSurface:
+    """The outer surface of one solid's eye, found once (collective): its facets and mirror planes."""
+
+    def __init__(self, solid: MixedSolid) -> None:
+        self.solid = solid
+        self.facets = outer_facets(solid)
+        self.axes = mirror_axes(solid)
+
+    def draw(self, mises: fem.Function, path: str, title: str | None = None) -> None:
+        """The picture of the current state, coloured by ``mises`` (DG0). Collective; rank 0 writes."""
+        corners, regions, values = gather_faces(self.solid.mesh_data, self.facets, self.solid, mises)
+        if corners is not None and len(corners):
+            stress_surface_png(corners, regions, values, path, self.axes, title)
