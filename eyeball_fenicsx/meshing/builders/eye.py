@@ -139,7 +139,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
     _, scaled = corner_jacobians(nodes, hexes)
     if scaled.min() < MIN_SCALED_JACOBIAN:
         raise SceneError(f"eye: the mesh has a corner with scaled Jacobian {scaled.min():.3f} < {MIN_SCALED_JACOBIAN} "
-                         f"({_distortion_cause(p, regions[np.argmin(scaled.min(axis=1))], detachment)})")
+                         f"({_distortion_cause(p, detachment)})")
     surfaces = name_surfaces(nodes, hexes, regions, m, p["sector_deg"])
     check_closed(nodes, surfaces, p["sector_deg"], detachment is not None)
     info = _statistics(nodes, hexes, regions, surfaces, scaled, m, p)
@@ -150,15 +150,12 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
     return EyeMesh(nodes, {name: hexes[regions == name] for name in order}, surfaces, info)
 
 
-def _distortion_cause(p, region, detachment):
-    """What a distorted element in ``region`` suggests is wrong, for the builder's error message."""
-    if region == "zonule":  # the ciliary body is fixed to the limbus, the lens placed from the cornea
-        return (f"the lens too far forward of the ciliary body for the zonule: anterior_chamber_depth "
-                f"{p['anterior_chamber_depth']} mm with corneal_radius {p['corneal_radius']} mm; a deeper chamber "
-                "or a flatter cornea?")
+def _distortion_cause(p, detachment):
+    """What a distorted element suggests is wrong, for the builder's error message."""
     if detachment is not None:
         return "a detachment gap too large for the elements?"
-    return f"axial_length {p['axial_length']} mm and the thicknesses out of proportion?"
+    return (f"axial_length {p['axial_length']} mm, corneal_radius {p['corneal_radius']} mm, anterior_chamber_depth "
+            f"{p['anterior_chamber_depth']} mm and the thicknesses out of proportion?")
 
 
 def _statistics(nodes, hexes, regions, surfaces, scaled, m, p):

@@ -12,7 +12,13 @@ a few structured quadrilateral blocks, whose rows of nodes :class:`Meridian` pla
   the ciliary body to the scleral spur, thickening from the pars plana to the pars plicata; the
   retina ends at the ora serrata, the ciliary body's front face is the iris root (no iris);
 * the zonule, a fan-shaped ring from the pars plicata to the lens equator;
-* the lens, between two spherical surfaces and a short equatorial rim;
+* the lens, between two spherical surfaces and a short equatorial rim: Le Grand's, its anterior pole
+  ``anterior_chamber_depth`` behind the cornea. With a chamber shallower than the reference eye's
+  with respect to the limbus (where the ciliary body and the zonule are) the lens is thicker, its
+  posterior surface and equator where they are, its anterior surface steeper through the anterior
+  pole and the rim: as the lens thickens with age, the distance from the cornea to its posterior
+  surface unchanged, and the chamber shallows (Cook et al., Vision Res. 34:2945, 1994); a deeper
+  chamber moves the whole lens back;
 * the optic nerve, a cylinder behind the posterior pole (on the axis, as in an axisymmetric model).
 
 The outer surface is the sclera and the cornea, a sphere of radius ``corneal_radius`` (7.8 mm),
@@ -113,16 +119,11 @@ class Meridian:
         self.p = p
         rho_l, Rc = LIMBUS_DIAMETER / 2, p["corneal_radius"]
         self.rho_l, self.Rc = rho_l, Rc
-        if not Rc > rho_l:
-            raise SceneError(f"eye: corneal_radius {Rc} must exceed the limbus' radius {rho_l} mm")
         corneal_sag = Rc - math.sqrt(Rc**2 - rho_l**2)
         pole_wall = p["sclera_thickness_pole"] + p["choroid_thickness"] + p["retina_thickness"]
         # The outer posterior pole to the limbus' plane: a = R_o + e + sqrt(R_o^2 - rho_l^2).
         a = p["axial_length"] - corneal_sag + pole_wall
         reference = REFERENCE_AXIAL_LENGTH - corneal_sag + pole_wall
-        if reference <= rho_l:
-            raise SceneError(f"eye: the cornea and the wall at the pole leave no room for a limbus of diameter "
-                             f"{LIMBUS_DIAMETER} mm")
         sphere = (reference * reference + rho_l**2) / (2 * reference)  # the reference eye's radius
         change = p["axial_length"] - REFERENCE_AXIAL_LENGTH
         self.Ro = sphere + EQUATOR_PER_AXIAL / 2 * change
@@ -152,9 +153,7 @@ class Meridian:
                 break
         self.s_nerve = self.Ro * theta
         self.z_nerve_end = -(self.Ro + self.elongation) - p["optic_nerve_length"]
-        # Lens (Le Grand): anterior pole at the aqueous depth behind the posterior cornea.
-        self.z_lens_front = self.z_apex - p["cornea_thickness"] - p["anterior_chamber_depth"]
-        self.z_lens_back = self.z_lens_front - LENS_THICKNESS
+        self._place_lens(corneal_sag)
         self.rho_lens = LENS_DIAMETER / 2
         r = self.p["refine"]
         self.fractions = np.concatenate([
@@ -162,6 +161,23 @@ class Meridian:
             np.linspace(p["choroid_thickness"], p["choroid_thickness"] + p["retina_thickness"],
                         RETINA_LAYERS * r + 1)[1:]]) / (p["choroid_thickness"] + p["retina_thickness"])
         self.columns = self._columns()
+
+    def _place_lens(self, corneal_sag):
+        """The lens's poles and anterior radius (Le Grand's lens): its anterior pole at the aqueous depth
+        behind the posterior cornea. A chamber shallower than the reference eye's with respect to the
+        limbus (a shallower depth, or a steeper cornea's deeper sagitta) thickens the lens forward,
+        its posterior surface and equator staying (module docstring)."""
+        p, rho_l = self.p, self.rho_l
+        self.z_lens_front = self.z_apex - p["cornea_thickness"] - p["anterior_chamber_depth"]
+        shallower = (corneal_sag - (CORNEA_RADIUS - math.sqrt(CORNEA_RADIUS**2 - rho_l**2))) \
+            + (ANTERIOR_CHAMBER_DEPTH - p["anterior_chamber_depth"])
+        self.lens_anterior_radius = LENS_ANTERIOR_RADIUS
+        self.z_lens_back = self.z_lens_front - LENS_THICKNESS
+        if shallower > 0:
+            rim = LENS_DIAMETER / 2
+            sag = LENS_ANTERIOR_RADIUS - math.sqrt(LENS_ANTERIOR_RADIUS**2 - rim**2) + shallower
+            self.lens_anterior_radius = (sag * sag + rim * rim) / (2 * sag)
+            self.z_lens_back -= shallower
 
     def radius(self, theta):
         """The sclera's outer radius r(theta) at polar angle theta (rad) from the posterior pole
@@ -225,7 +241,8 @@ class Meridian:
 
     def lens_row(self, rho, j):
         rho = np.asarray(rho, dtype=float)
-        front = self.z_lens_front - (LENS_ANTERIOR_RADIUS - np.sqrt(LENS_ANTERIOR_RADIUS**2 - rho**2))
+        radius = self.lens_anterior_radius
+        front = self.z_lens_front - (radius - np.sqrt(radius**2 - rho**2))
         back = self.z_lens_back + (LENS_POSTERIOR_RADIUS - np.sqrt(LENS_POSTERIOR_RADIUS**2 - rho**2))
         return np.stack([rho, back + j / (LENS_LAYERS * self.p["refine"]) * (front - back)], axis=-1)
 
