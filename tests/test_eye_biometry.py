@@ -171,43 +171,18 @@ def test_rejects_bad_biometry(options, fragment):
         eye.eye_geometry(**COARSE, **options)
 
 
-FILLED = '''name = "filled"
-tissues = "seed"
-[mesh]
-builder = "eye"
-axial_length = 28.0
-n_circ = 16
-sector_deg = 90.0
-[[step]]
-name = "fill"
-[[dirichlet]]
-surface = "optic_nerve_end"
-x = 0.0
-y = 0.0
-z = 0.0
-[[dirichlet]]
-surface = "cut_0"
-y = 0.0
-[[dirichlet]]
-surface = "cut_1"
-x = 0.0
-[[cavity]]
-name = "vitreous"
-surface = "vitreous_wall"
-bulk_modulus = 2083.3
-initial_pressure = 0.002
-pressurize = true
-symmetry = ["x", "y"]
-[[cavity]]
-name = "aqueous"
-surface = "anterior_chamber_wall"
-bulk_modulus = 2083.3
-initial_pressure = 0.002
-pressurize = true
-symmetry = ["x", "y"]
-[eye]
-vitreous = "vitreous"
-'''
+def _filled_quarter_eye(axial_length):
+    """The scene of a coarse quarter eye on the seed's tissues, held by its nerve and its cut planes,
+    both cavities filled to 15 mmHg in one step."""
+    supports = [("optic_nerve_end", "x = 0.0\ny = 0.0\nz = 0.0"), ("cut_0", "y = 0.0"), ("cut_1", "x = 0.0")]
+    cavities = [("vitreous", "vitreous_wall"), ("aqueous", "anterior_chamber_wall")]
+    return (f'tissues = "seed"\n[mesh]\nbuilder = "eye"\naxial_length = {axial_length}\n'
+            + "".join(f"{key} = {value}\n" for key, value in COARSE.items())
+            + '[[step]]\nname = "fill"\n'
+            + "".join(f'[[dirichlet]]\nsurface = "{surface}"\n{fixed}\n' for surface, fixed in supports)
+            + "".join(f'[[cavity]]\nname = "{name}"\nsurface = "{wall}"\nbulk_modulus = 2083.3\n'
+                      'initial_pressure = 0.002\npressurize = true\nsymmetry = ["x", "y"]\n' for name, wall in cavities)
+            + '[eye]\nvitreous = "vitreous"\n')
 
 
 def test_myopic_eye_filled_to_15_mmHg(tmp_path):
@@ -222,7 +197,7 @@ def test_myopic_eye_filled_to_15_mmHg(tmp_path):
     path = comm.bcast(str(tmp_path / "filled.toml"), root=0)
     if comm.rank == 0:
         with open(path, "w") as f:
-            f.write(FILLED)
+            f.write(_filled_quarter_eye(28.0))
     comm.barrier()
     scene = load_scene(path, comm)
     step = scene.run()["steps"][-1]
