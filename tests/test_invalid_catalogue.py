@@ -258,8 +258,29 @@ CASES = {
     "eye-detachment-off-the-cut-plane": (
         eye("sector_deg = 180\ndetachment = { polar_deg = 30.0, azimuth_deg = 90.0, extent_deg = 20.0, gap = 0.1 }\n"),
         ["[mesh]", "wedge model is mirrored", "azimuth_deg 0 or 180"]),
-    "eye-out-of-proportion": (eye("axial_length = 500.0\n" + SMALL_EYE),  # fixed: blamed a detachment the eye has not
-                              ["[mesh]", "scaled Jacobian", "axial_length 500.0 mm"]),
+    "eye-out-of-proportion": (  # fixed: blamed a detachment the eye has not
+        eye("sclera_thickness_limbus = 1.99\nsclera_thickness_equator = 0.05\n" + SMALL_EYE),
+        ["[mesh]", "scaled Jacobian", "axial_length 24.0 mm", "thicknesses out of proportion"]),
+    # the eye's biometry (issue 18)
+    "eye-axial-length-out-of-range": (eye("axial_length = 500.0\n" + SMALL_EYE),
+                                      ["[mesh]", "axial_length must be between 21 and 30 mm, got 500.0"]),
+    "eye-axial-length-short": (eye("axial_length = 20.0\n" + SMALL_EYE),
+                               ["[mesh]", "axial_length must be between 21 and 30 mm, got 20.0"]),
+    "eye-corneal-radius-out-of-range": (eye("corneal_radius = 5.8\n" + SMALL_EYE),
+                                        ["[mesh]", "corneal_radius must be between 6.5 and 9.5 mm, got 5.8"]),
+    "eye-corneal-radius-not-a-number": (eye('corneal_radius = "7.8"\n' + SMALL_EYE),
+                                        ["[mesh]", "corneal_radius must be a positive number, got '7.8'"]),
+    "eye-chamber-depth-out-of-range": (eye("anterior_chamber_depth = 5.5\n" + SMALL_EYE),
+                                       ["[mesh]", "anterior_chamber_depth must be between 1.5 and 4.5 mm, got 5.5"]),
+    "eye-chamber-depth-negative": (eye("anterior_chamber_depth = -3.05\n" + SMALL_EYE),
+                                   ["[mesh]", "anterior_chamber_depth must be a positive number, got -3.05"]),
+    "eye-sclera-thickness-zero": (eye("sclera_thickness_equator = 0.0\n" + SMALL_EYE),
+                                  ["[mesh]", "sclera_thickness_equator must be a positive number, got 0.0"]),
+    "eye-sclera-thicker-than-2-mm": (eye("sclera_thickness_pole = 2.5\n" + SMALL_EYE),
+                                     ["[mesh]", "sclera and the cornea must be thinner than 2 mm"]),
+    "buckled-eye-band-behind-a-myopic-equator": (
+        BUCKLED_EYE + "axial_length = 28.0\nband_position = 15.5\n" + SMALL_EYE + BUCKLE_MATERIALS,
+        ["[mesh]", "band would cut into the sclera behind the equator of this 28.0 mm eye", "band_position 15.5"]),
     # the buckled eye's tire: its arc and azimuth
     "tire-arc-beyond-360": (tire("{ arc_deg = 400.0 }"), ["[mesh]", "tire arc_deg must be at most 360, got 400.0"]),
     "tire-off-the-cut-plane": (tire("{ arc_deg = 90.0, azimuth_deg = 45.0 }", "sector_deg = 180\n"),

@@ -23,7 +23,9 @@ from the posterior pole (z = -r cos theta, rho = r sin theta), and its azimuth p
   ring all around, resting on the tire where the tire is and standing height + gap clear of the
   sclera elsewhere (tightening brings it down).
 * The whole buckle must rest on the spherical sclera, between the optic nerve and the limbal blend
-  of eye_meridian.py. In a wedge model a segmental tire must be centred on a cut plane.
+  of eye_meridian.py; behind the equator of an eye longer than 24 mm the sclera is outside the
+  sphere R_o (eye_meridian.py), and the buckle must clear it there. In a wedge model a segmental
+  tire must be centred on a cut plane.
 
 Sources of the defaults (beside each constant): the band's position (J. Ophthalmol. 2016, article
 3578617; an ARVO abstract, IOVS article 2745536) and its width (Read & Hahn, "Pearls for scleral
@@ -247,3 +249,10 @@ def _check_fit(bodies, m, band_position):
         raise SceneError(f"buckled_eye: the buckle must rest on the sclera between {m.s_l - m.s_nerve:.1f} and "
                          f"{LIMBUS_BLEND} mm behind the limbus, but it spans {m.s_l - back:.2f} to "
                          f"{m.s_l - front:.2f} mm (band_position {band_position})")
+    for body in bodies.values():  # behind the equator a long eye's sclera is outside the sphere R_o
+        reach = float(np.max(m.radius(np.linspace(*body.theta, 50))))
+        if reach >= body.inner_radius:
+            raise SceneError(f"buckled_eye: the {body.name} would cut into the sclera behind the equator of "
+                             f"this {m.p['axial_length']} mm eye (the sclera reaches radius {reach:.3f} mm under it, "
+                             f"its inner surface is at {body.inner_radius:.3f} mm): move it forward "
+                             f"(band_position {band_position})")

@@ -1,7 +1,10 @@
 """Hexahedral mesh of a human eye, axisymmetric about the optic axis, for scleral-buckling simulations.
 
 The optic axis is the z axis: the corneal apex is at +z, the posterior pole at -z, and the origin
-is the centre of the spherical sclera, so the equator is the plane z = 0. Only the solid tissues
+is the centre of the sclera's anterior sphere, so the equator is the plane z = 0. The eye is built
+from its biometry: axial length, anterior corneal radius, anterior chamber depth and the wall's
+thicknesses; an eye longer or shorter than 24 mm is elongated or shortened behind the equator as
+myopic eyes are (eye_meridian.py, after Atchison et al., IOVS 45:3380, 2004). Only the solid tissues
 are meshed, with 8-node hexahedra; the vitreous and the aqueous are liquid cavities, and an
 optional retinal detachment is an empty subretinal gap.
 
@@ -35,13 +38,16 @@ import numpy as np
 
 from ...errors import SceneError
 from .eye_detachment import DETACHMENT_KEYS, check_detachment, detach
-from .eye_meridian import CILIARY_THICKNESS, N_CIRC, Meridian
+from .eye_meridian import ANTERIOR_CHAMBER_DEPTH, CILIARY_THICKNESS, CORNEA_RADIUS, N_CIRC, Meridian
 from .eye_revolution import assemble_eye
 from .eye_surfaces import TOLERANCE, check_closed, name_surfaces
 from .hexes import add_hex_model, builder_main, check, corner_jacobians, enclosed_volume, msh_writer
 
 MIN_SCALED_JACOBIAN = 0.2  # the builder refuses a mesh with a worse corner
 _SECTORS = (90.0, 180.0, 360.0)
+# The biometry the builder accepts (mm): adult axial lengths, anterior corneal radii of 35.5 to 52 D
+# keratometry (normal 7.0-8.6 mm), aqueous depths (posterior cornea to lens) of shallow to deep chambers.
+BIOMETRY_RANGES = {"axial_length": (21.0, 30.0), "corneal_radius": (6.5, 9.5), "anterior_chamber_depth": (1.5, 4.5)}
 
 
 @dataclasses.dataclass
@@ -64,10 +70,14 @@ class EyeMesh:
 
 def _check_parameters(p):
     """Raise SceneError unless the eye's parameters are valid (the detachment aside)."""
-    for name in ("axial_length", "sclera_thickness_limbus", "sclera_thickness_equator", "sclera_thickness_pole",
+    for name in ("sclera_thickness_limbus", "sclera_thickness_equator", "sclera_thickness_pole",
                  "cornea_thickness", "choroid_thickness", "retina_thickness", "optic_nerve_diameter",
                  "optic_nerve_length"):
         check("eye", name, p[name], "positive number")
+    for name, (low, high) in BIOMETRY_RANGES.items():
+        check("eye", name, p[name], "positive number")
+        if not low <= p[name] <= high:
+            raise SceneError(f"eye: {name} must be between {low:g} and {high:g} mm, got {p[name]!r}")
     check("eye", "refine", p["refine"], "positive integer")
     check("eye", "n_circ", p["n_circ"], "positive integer")
     if p["sector_deg"] not in _SECTORS:
@@ -102,7 +112,8 @@ def checked_parameters(p: dict) -> tuple[dict, Meridian]:
     return p, Meridian(p)
 
 
-def eye_geometry(axial_length: float = 24.0, sclera_thickness_limbus: float = 0.5,
+def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADIUS,
+                 anterior_chamber_depth: float = ANTERIOR_CHAMBER_DEPTH, sclera_thickness_limbus: float = 0.5,
                  sclera_thickness_equator: float = 0.4, sclera_thickness_pole: float = 1.0,
                  cornea_thickness: float = 0.53, choroid_thickness: float = 0.25, retina_thickness: float = 0.25,
                  optic_nerve_diameter: float = 3.5, optic_nerve_length: float = 3.0, detachment: dict | None = None,
@@ -127,10 +138,8 @@ def eye_geometry(axial_length: float = 24.0, sclera_thickness_limbus: float = 0.
         nodes, hexes = detach(nodes, hexes, regions, m, detachment, p["sector_deg"])
     _, scaled = corner_jacobians(nodes, hexes)
     if scaled.min() < MIN_SCALED_JACOBIAN:
-        cause = "a detachment gap too large for the elements?" if detachment is not None else \
-            f"axial_length {p['axial_length']} mm and the thicknesses out of proportion?"
         raise SceneError(f"eye: the mesh has a corner with scaled Jacobian {scaled.min():.3f} < {MIN_SCALED_JACOBIAN} "
-                         f"({cause})")
+                         f"({_distortion_cause(p, detachment)})")
     surfaces = name_surfaces(nodes, hexes, regions, m, p["sector_deg"])
     check_closed(nodes, surfaces, p["sector_deg"], detachment is not None)
     info = _statistics(nodes, hexes, regions, surfaces, scaled, m, p)
@@ -139,6 +148,14 @@ def eye_geometry(axial_length: float = 24.0, sclera_thickness_limbus: float = 0.
     order = ["cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule"]
     info["build_seconds"] = time.perf_counter() - start
     return EyeMesh(nodes, {name: hexes[regions == name] for name in order}, surfaces, info)
+
+
+def _distortion_cause(p, detachment):
+    """What a distorted element suggests is wrong, for the builder's error message."""
+    if detachment is not None:
+        return "a detachment gap too large for the elements?"
+    return (f"axial_length {p['axial_length']} mm, corneal_radius {p['corneal_radius']} mm, anterior_chamber_depth "
+            f"{p['anterior_chamber_depth']} mm and the thicknesses out of proportion?")
 
 
 def _statistics(nodes, hexes, regions, surfaces, scaled, m, p):
@@ -153,7 +170,7 @@ def _statistics(nodes, hexes, regions, surfaces, scaled, m, p):
         "vitreous_volume": whole * enclosed_volume(nodes, surfaces["vitreous_wall"]),
         "anterior_chamber_volume": whole * enclosed_volume(nodes, surfaces["anterior_chamber_wall"]),
         "axial_length": m.z_apex - nodes[on_axis, 2].min(),
-        "globe_radius": m.Ro, "corneal_apex_z": m.z_apex,
+        "globe_radius": m.Ro, "posterior_semi_axis": m.Ro + m.elongation, "corneal_apex_z": m.z_apex,
         "limbus": (m.rho_l, float(m.outer(m.s_l)[0][1])),
         "ora_serrata_deg": math.degrees(m.s_ora / m.Ro),
         "optic_nerve_end_z": m.z_nerve_end, "n_circ": p["n_circ"],
@@ -168,7 +185,9 @@ def scleral_wall(samples: int = 60, **parameters) -> tuple[np.ndarray, list[list
     polar angle theta (from the posterior pole) the wall is concentric spherical layers: retina,
     choroid and sclera up to the ora serrata, the ciliary body and the sclera from there to the
     scleral spur, where the ciliary body ends. The sclera in front of the spur and the cornea are
-    left out (they bound the aqueous, a cavity of its own).
+    left out (they bound the aqueous, a cavity of its own). Behind the equator of an eye longer or
+    shorter than 24 mm the layers' radii are those of the mesh's line at theta (the wall is not
+    spherical there: each direction is then a piece of a sphere of its own radius).
 
     Args:
         samples: number of polar angles, equally spaced from the pole to the scleral spur.
@@ -184,13 +203,14 @@ def scleral_wall(samples: int = 60, **parameters) -> tuple[np.ndarray, list[list
     inner = p["choroid_thickness"] + p["retina_thickness"]
     theta, layers = np.linspace(0.0, m.s_spur / m.Ro, samples), []
     for s in m.Ro * theta:
-        scleral = m.Ro - float(m.shell_thickness(s))
-        below = scleral - float(m.inner_thickness(s))
+        outer, depth = float(m.radius(s / m.Ro)), float(np.linalg.norm(m.outer(s)[1]))  # depth: along the line
+        scleral = outer - depth * float(m.shell_thickness(s))
+        below = scleral - depth * float(m.inner_thickness(s))
         if s < m.s_ora:
             choroid = scleral - p["choroid_thickness"] / inner * (scleral - below)
-            layers.append([(below, choroid, "retina"), (choroid, scleral, "choroid"), (scleral, m.Ro, "sclera")])
+            layers.append([(below, choroid, "retina"), (choroid, scleral, "choroid"), (scleral, outer, "sclera")])
         else:
-            layers.append([(below, scleral, "ciliary_body"), (scleral, m.Ro, "sclera")])
+            layers.append([(below, scleral, "ciliary_body"), (scleral, outer, "sclera")])
     return theta, layers
 
 
@@ -200,8 +220,14 @@ def build_eye(**parameters) -> dict:
     Call on the rank that owns gmsh, with gmsh initialized.
 
     Args:
-        axial_length: corneal apex to the vitreoretinal interface on the axis (mm), 24 (Atchison
-            & Smith's schematic eyes); the sclera is a sphere whose radius follows from it.
+        axial_length: corneal apex to the vitreoretinal interface on the axis (mm), 21 to 30, 24
+            (Atchison & Smith's schematic eyes). At 24 the sclera is a sphere whose radius follows
+            from it; a longer eye is wider at the equator by ``EQUATOR_PER_AXIAL`` = 0.41 mm per mm
+            of length and prolate behind it, a shorter one narrower and oblate (eye_meridian.py).
+        corneal_radius: anterior corneal radius of curvature, 7.8 mm (Le Grand's eye; 6.5 to 9.5).
+        anterior_chamber_depth: posterior corneal surface to the anterior lens on the axis, 3.05 mm
+            (Le Grand's aqueous depth; 1.5 to 4.5). A biometer's ACD, from the corneal epithelium,
+            is this plus ``cornea_thickness``.
         sclera_thickness_limbus, sclera_thickness_equator, sclera_thickness_pole: 0.5, 0.4 and 1.0 mm
             (Olsen et al., Am. J. Ophthalmol. 125:237, 1998: 0.53, 0.39, 0.9-1.0; Norman et al.,
             Exp. Eye Res. 90:277, 2010).
@@ -252,7 +278,8 @@ def _build_from_cli(detachment=None, **parameters):
 
 # The eye's dimensions and resolution as command-line options (all but the detachment), for builder_main.
 EYE_OPTIONS = {
-    "axial_length": 24.0, "sclera_thickness_limbus": 0.5, "sclera_thickness_equator": 0.4,
+    "axial_length": 24.0, "corneal_radius": CORNEA_RADIUS, "anterior_chamber_depth": ANTERIOR_CHAMBER_DEPTH,
+    "sclera_thickness_limbus": 0.5, "sclera_thickness_equator": 0.4,
     "sclera_thickness_pole": 1.0, "cornea_thickness": 0.53, "choroid_thickness": 0.25, "retina_thickness": 0.25,
     "optic_nerve_diameter": 3.5, "optic_nerve_length": 3.0,
     "refine": dict(type=int, default=1, help="2 doubles the elements in every direction"),

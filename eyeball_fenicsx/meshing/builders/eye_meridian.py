@@ -12,16 +12,41 @@ a few structured quadrilateral blocks, whose rows of nodes :class:`Meridian` pla
   the ciliary body to the scleral spur, thickening from the pars plana to the pars plicata; the
   retina ends at the ora serrata, the ciliary body's front face is the iris root (no iris);
 * the zonule, a fan-shaped ring from the pars plicata to the lens equator;
-* the lens, between two spherical surfaces and a short equatorial rim;
+* the lens, between two spherical surfaces and a short equatorial rim: Le Grand's, its anterior pole
+  ``anterior_chamber_depth`` behind the cornea. With a chamber shallower than the reference eye's
+  with respect to the limbus (where the ciliary body and the zonule are) the lens is thicker, its
+  posterior surface and equator where they are, its anterior surface steeper through the anterior
+  pole and the rim: as the lens thickens with age, the distance from the cornea to its posterior
+  surface unchanged, and the chamber shallows (Cook et al., Vision Res. 34:2945, 1994); a deeper
+  chamber moves the whole lens back;
 * the optic nerve, a cylinder behind the posterior pole (on the axis, as in an axisymmetric model).
 
-The outer surface is two spheres: the sclera, of radius R_o about the origin, and the cornea, of
-radius 7.8 mm, meeting at the limbus, of radius rho_l. R_o follows from the axial length (corneal
-apex to the vitreoretinal interface on the axis): R_o + sqrt(R_o^2 - rho_l^2) = a, a the axial
-length less the corneal sagitta plus the wall at the pole. The sclera thins from the pole to the equator as
-cos^2 of the polar angle and thickens again to the limbus; the cornea thickens quadratically in
-its own polar angle from its central thickness to the limbal sclera's. Blends are
-``smoothstep`` = sin^2(pi x / 2), C1 with zero slope at both ends.
+The outer surface is the sclera and the cornea, a sphere of radius ``corneal_radius`` (7.8 mm),
+meeting at the limbus, of radius rho_l. In front of the equator (z >= 0) the sclera is a sphere of
+radius R_o about the origin; behind it, at polar angle theta from the posterior pole, its radius is
+
+    r(theta) = R_o + e cos^2(theta),
+
+which is R_o at the equator (with zero slope: the surface is C1 there) and R_o + e at the posterior
+pole: to first order in e / R_o the half spheroid of semi-axes R_o (equatorial) and R_o + e (polar).
+The eye of the reference axial length 24 mm (Atchison & Smith's schematic eyes) is the sphere
+(e = 0): R_o + sqrt(R_o^2 - rho_l^2) = a, a the axial length (corneal apex to the vitreoretinal
+interface on the axis) less the corneal sagitta plus the wall at the pole. Another axial length L
+keeps the anterior segment and changes the equatorial diameter by ``EQUATOR_PER_AXIAL`` (L - 24),
+the rest of the change going into the posterior segment, e: myopic eyes are larger in all three
+dimensions, but more in length (0.35 mm/D) than in height (0.19 mm/D) and width (0.10 mm/D)
+(Atchison et al., IOVS 45:3380, 2004, MRI of 88 eyes from emmetropia to -12 D); a short
+(hyperopic) eye is assumed to follow the same rates the other way (their eyes were not hyperopic).
+A long eye's posterior segment is prolate (e > 0), a short one's oblate (e < 0).
+
+A point of the shell is on the line through the origin at polar angle theta = s / R_o, s the
+parameter of the meridian (the arc length from the posterior pole on the sphere of radius R_o:
+the arc length of the sclera itself in front of the equator), at a depth measured across the
+shell (the line's direction is scaled by 1 / cos alpha, alpha = atan(r' / r) the angle between the
+line and the normal of r(theta)); so the shell's lines meet at the origin, as in the sphere. The
+sclera thins from the pole to the equator as cos^2 of the polar angle and thickens again to the
+limbus; the cornea thickens quadratically in its own polar angle from its central thickness to the
+limbal sclera's. Blends are ``smoothstep`` = sin^2(pi x / 2), C1 with zero slope at both ends.
 
 Sources of the anatomy (beside each constant): the Le Grand full theoretical eye (Atchison &
 Smith, Optics of the Human Eye, 2000, appendix A); Rosen et al., Vision Res. 46:1002, 2006 (the
@@ -41,6 +66,11 @@ from ...errors import SceneError
 # cornea to retina 24.2 (24.0 in Navarro's eye).
 CORNEA_RADIUS = 7.8
 ANTERIOR_CHAMBER_DEPTH = 3.05  # posterior cornea to anterior lens, on the axis
+REFERENCE_AXIAL_LENGTH = 24.0  # the spherical eye
+# Myopic eyes grow 0.35 mm/D in length, 0.19 mm/D in height and 0.10 mm/D in width (Atchison et al.,
+# "Eye shape in emmetropia and myopia", IOVS 45:3380, 2004): an axisymmetric eye's equatorial
+# diameter grows by the mean of height and width per mm of axial length.
+EQUATOR_PER_AXIAL = (0.19 + 0.10) / 2 / 0.35
 LENS_THICKNESS = 4.0
 LENS_ANTERIOR_RADIUS = 10.2
 LENS_POSTERIOR_RADIUS = 6.0
@@ -87,23 +117,26 @@ class Meridian:
 
     def __init__(self, p: dict):
         self.p = p
-        rho_l = LIMBUS_DIAMETER / 2
-        self.rho_l, self.Rc = rho_l, CORNEA_RADIUS
-        corneal_sag = CORNEA_RADIUS - math.sqrt(CORNEA_RADIUS**2 - rho_l**2)
+        rho_l, Rc = LIMBUS_DIAMETER / 2, p["corneal_radius"]
+        self.rho_l, self.Rc = rho_l, Rc
+        corneal_sag = Rc - math.sqrt(Rc**2 - rho_l**2)
         pole_wall = p["sclera_thickness_pole"] + p["choroid_thickness"] + p["retina_thickness"]
-        # Corneal apex to the vitreoretinal interface on the axis: Ro + sqrt(Ro^2 - rho_l^2) = a.
+        # The outer posterior pole to the limbus' plane: a = R_o + e + sqrt(R_o^2 - rho_l^2).
         a = p["axial_length"] - corneal_sag + pole_wall
-        if a <= rho_l:
-            raise SceneError(f"eye: axial_length {p['axial_length']} is too short for a limbus of diameter "
-                             f"{LIMBUS_DIAMETER} mm")
-        self.Ro = (a * a + rho_l**2) / (2 * a)
-        z_l = a - self.Ro
+        reference = REFERENCE_AXIAL_LENGTH - corneal_sag + pole_wall
+        sphere = (reference * reference + rho_l**2) / (2 * reference)  # the reference eye's radius
+        change = p["axial_length"] - REFERENCE_AXIAL_LENGTH
+        self.Ro = sphere + EQUATOR_PER_AXIAL / 2 * change
+        # e from a - reference = change, written as differences so that e = 0 exactly at the reference.
+        self.elongation = change - (self.Ro - sphere) - (math.sqrt(self.Ro**2 - rho_l**2)
+                                                          - math.sqrt(sphere**2 - rho_l**2))
+        z_l = a - (self.Ro + self.elongation)
         self.theta_l = math.atan2(rho_l, -z_l)
         self.s_l = self.Ro * self.theta_l
-        self.z_cc = z_l - math.sqrt(CORNEA_RADIUS**2 - rho_l**2)
-        self.z_apex = self.z_cc + CORNEA_RADIUS
-        self.phi_l = math.asin(rho_l / CORNEA_RADIUS)
-        self.S = self.s_l + CORNEA_RADIUS * self.phi_l
+        self.z_cc = z_l - math.sqrt(Rc**2 - rho_l**2)
+        self.z_apex = self.z_cc + Rc
+        self.phi_l = math.asin(rho_l / Rc)
+        self.S = self.s_l + Rc * self.phi_l
         self.n_limbus = unit(np.array([-math.sin(self.theta_l), math.cos(self.theta_l)])
                              + np.array([-math.sin(self.phi_l), -math.cos(self.phi_l)]))
         self.s_ora = self.s_l - ORA_TO_LIMBUS
@@ -113,11 +146,14 @@ class Meridian:
         self.nerve_radius = p["optic_nerve_diameter"] / 2
         if not self.nerve_radius < 0.5 * self.Ro:
             raise SceneError(f"eye: optic_nerve_diameter {p['optic_nerve_diameter']} is too large")
-        self.s_nerve = self.Ro * math.asin(self.nerve_radius / self.Ro)
-        self.z_nerve_end = -self.Ro - p["optic_nerve_length"]
-        # Lens (Le Grand): anterior pole at the aqueous depth behind the posterior cornea.
-        self.z_lens_front = self.z_apex - p["cornea_thickness"] - ANTERIOR_CHAMBER_DEPTH
-        self.z_lens_back = self.z_lens_front - LENS_THICKNESS
+        theta = math.asin(self.nerve_radius / self.Ro)
+        for _ in range(50):  # r(theta) sin(theta) = the nerve's radius, by fixed point (a contraction)
+            theta, previous = math.asin(self.nerve_radius / float(self.radius(theta))), theta
+            if theta == previous:
+                break
+        self.s_nerve = self.Ro * theta
+        self.z_nerve_end = -(self.Ro + self.elongation) - p["optic_nerve_length"]
+        self._place_lens(corneal_sag)
         self.rho_lens = LENS_DIAMETER / 2
         r = self.p["refine"]
         self.fractions = np.concatenate([
@@ -126,19 +162,47 @@ class Meridian:
                         RETINA_LAYERS * r + 1)[1:]]) / (p["choroid_thickness"] + p["retina_thickness"])
         self.columns = self._columns()
 
+    def _place_lens(self, corneal_sag):
+        """The lens's poles and anterior radius (Le Grand's lens): its anterior pole at the aqueous depth
+        behind the posterior cornea. A chamber shallower than the reference eye's with respect to the
+        limbus (a shallower depth, or a steeper cornea's deeper sagitta) thickens the lens forward,
+        its posterior surface and equator staying (module docstring)."""
+        p, rho_l = self.p, self.rho_l
+        self.z_lens_front = self.z_apex - p["cornea_thickness"] - p["anterior_chamber_depth"]
+        shallower = (corneal_sag - (CORNEA_RADIUS - math.sqrt(CORNEA_RADIUS**2 - rho_l**2))) \
+            + (ANTERIOR_CHAMBER_DEPTH - p["anterior_chamber_depth"])
+        self.lens_anterior_radius = LENS_ANTERIOR_RADIUS
+        self.z_lens_back = self.z_lens_front - LENS_THICKNESS
+        if shallower > 0:
+            rim = LENS_DIAMETER / 2
+            sag = LENS_ANTERIOR_RADIUS - math.sqrt(LENS_ANTERIOR_RADIUS**2 - rim**2) + shallower
+            self.lens_anterior_radius = (sag * sag + rim * rim) / (2 * sag)
+            self.z_lens_back -= shallower
+
+    def radius(self, theta):
+        """The sclera's outer radius r(theta) at polar angle theta (rad) from the posterior pole
+        (as far as the limbus): R_o + e cos^2(theta) behind the equator, R_o in front of it."""
+        theta = np.asarray(theta, dtype=float)
+        return self.Ro + self.elongation * np.where(theta < np.pi / 2, np.cos(theta) ** 2, 0.0)
+
     def outer(self, s):
-        """The outer surface C(s) and the unit vector n(s) of the shell's line, by arc length s from
-        the posterior pole: shape (..., 2) each, in (rho, z)."""
+        """The outer surface C(s) and the direction n(s) of the shell's line, by the meridian's
+        parameter s from the posterior pole: shape (..., 2) each, in (rho, z). A unit vector but
+        behind the equator of an elongated eye, where it is the inward radial direction over
+        cos alpha (module docstring)."""
         s = np.asarray(s, dtype=float)
         theta = np.minimum(s, self.s_l) / self.Ro
         phi = np.maximum(self.S - s, 0.0) / self.Rc
         on_sclera = (s <= self.s_l)[..., None]
-        point = np.where(on_sclera, np.stack([self.Ro * np.sin(theta), -self.Ro * np.cos(theta)], axis=-1),
+        r = self.radius(theta)
+        point = np.where(on_sclera, np.stack([r * np.sin(theta), -r * np.cos(theta)], axis=-1),
                          np.stack([self.Rc * np.sin(phi), self.z_cc + self.Rc * np.cos(phi)], axis=-1))
         normal = np.where(on_sclera, np.stack([-np.sin(theta), np.cos(theta)], axis=-1),
                           np.stack([-np.sin(phi), -np.cos(phi)], axis=-1))
         weight = smoothstep(1.0 - np.abs(s - self.s_l) / LIMBUS_BLEND)[..., None]
-        return point, unit((1 - weight) * normal + weight * self.n_limbus)
+        slope = -self.elongation * np.where(theta < np.pi / 2, np.sin(2 * theta), 0.0) / r  # r' / r = tan(alpha)
+        stretch = np.where(on_sclera[..., 0], np.sqrt(1.0 + slope**2), 1.0)[..., None]
+        return point, unit((1 - weight) * normal + weight * self.n_limbus) * stretch
 
     def shell_thickness(self, s):
         """Sclera (s <= s_l) or cornea (s > s_l) thickness."""
@@ -177,9 +241,21 @@ class Meridian:
 
     def lens_row(self, rho, j):
         rho = np.asarray(rho, dtype=float)
-        front = self.z_lens_front - (LENS_ANTERIOR_RADIUS - np.sqrt(LENS_ANTERIOR_RADIUS**2 - rho**2))
+        radius = self.lens_anterior_radius
+        front = self.z_lens_front - (radius - np.sqrt(radius**2 - rho**2))
         back = self.z_lens_back + (LENS_POSTERIOR_RADIUS - np.sqrt(LENS_POSTERIOR_RADIUS**2 - rho**2))
         return np.stack([rho, back + j / (LENS_LAYERS * self.p["refine"]) * (front - back)], axis=-1)
+
+    def _length(self, start, stop):
+        """Length of the outer surface between the parameters start and stop (by the trapezoidal rule
+        on 200 intervals): stop - start but behind the equator of an elongated eye, where the
+        length element is sqrt(r^2 + r'^2) dtheta."""
+        s = np.linspace(start, stop, 201)
+        theta = np.minimum(s, self.s_l) / self.Ro
+        r = self.radius(theta)
+        slope = -self.elongation * np.where(theta < np.pi / 2, np.sin(2 * theta), 0.0)
+        factor = np.where(s <= self.s_l, np.sqrt(r**2 + slope**2) / self.Ro, 1.0)
+        return float(np.sum((factor[1:] + factor[:-1]) / 2 * np.diff(s)))
 
     def _columns(self):
         """Arc lengths of the revolved columns of the shell, from the nerve core to the corneal core."""
@@ -191,7 +267,7 @@ class Meridian:
         for (start, _), (stop, count) in zip(stops, stops[1:]):
             if stop <= start + 0.1:
                 raise SceneError("eye: the anatomy does not fit: check axial_length and the thicknesses")
-            count = count or max(1, round((stop - start) / SPACING)) * r
+            count = count or max(1, round(self._length(start, stop) / SPACING)) * r
             columns.append(np.linspace(start, stop, count + 1)[1:])
         columns = np.concatenate(columns)
         for name, value in (("z0", self.s_z0), ("z1", self.s_z1), ("spur", self.s_spur)):
