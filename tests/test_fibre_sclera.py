@@ -21,8 +21,12 @@ import pytest
 import ufl
 from dolfinx import fem, mesh
 from mpi4py import MPI
+from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
+from eyeball_fenicsx.scene.solid_tables import material_table
+from eyeball_fenicsx.scene.tables import Table
+from eyeball_fenicsx.scene.tissues import TISSUE_SETS, tissue_set
 
 C10, K1, K2 = 0.05, 0.8, 15.0  # MPa, MPa, - (of the order of the calibrated sclera's)
 
@@ -84,9 +88,6 @@ def test_the_fibre_sets_sclera_stiffens_as_measured():
     closed form above): its tangent modulus at 1 MPa of nominal stress is 11.2-12.4 times that at
     0.05 MPa, as Geraghty et al. measured in circumferential strips of human sclera (J Mech
     Behav Biomed Mater 2012;16:181, anterior to posterior means)."""
-    from scipy.optimize import brentq
-
-    from eyeball_fenicsx.scene.tissues import TISSUE_SETS
     with open(f"{TISSUE_SETS}/fibre.toml", "rb") as file:
         sclera = tomllib.load(file)["materials"]["sclera"]
     c10, k1, k2 = sclera["c10"], sclera["k1"], sclera["k2"]
@@ -100,3 +101,14 @@ def test_the_fibre_sets_sclera_stiffens_as_measured():
         return (nominal(stretch + h) - nominal(stretch - h)) / (2 * h)
 
     assert 11.2 <= tangent(1.0) / tangent(0.05) <= 12.4
+
+
+def test_the_fibre_set_gives_the_sclera_its_law():
+    """tissues = "fibre" reads as the fibre-reinforced sclera about the eye builders' axis and
+    centre, every other tissue as in tissues = "calibrated"."""
+    fibre, calibrated = tissue_set("fibre", "scene.toml"), tissue_set("calibrated", "scene.toml")
+    laws = {region: material_table(Table(data, where, data)) for region, (data, where) in fibre.items()}
+    assert isinstance(laws["sclera"], ef.FibreReinforced)
+    assert (laws["sclera"].axis, laws["sclera"].centre) == ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+    assert {region: data for region, (data, _) in fibre.items() if region != "sclera"} == \
+        {region: data for region, (data, _) in calibrated.items() if region != "sclera"}
