@@ -11,8 +11,9 @@ while the fibre is stretched (the Macaulay bracket <x> = max(x, 0): crimped coll
 compression; Battaglioli & Kamm, IOVS 1984;25:59, found the sclera's compressive modulus over a
 hundred times below its tensile one). The fibres lie in the tangent plane of the sphere about
 ``centre``, at angles from the circumferential direction about ``axis`` towards the meridional
-one (lamellae tangential to the scleral surface, as in Grytz & Meschke, Biomech Model
-Mechanobiol 2010;9:225 and Coudrillier et al., IOVS 2012;53:1714).
+one: scleral lamellae lie tangential to the scleral surface, in an isotropic matrix (the
+microstructural sclera models of Grytz et al., e.g. IOVS ARVO article 2277049, and of Coudrillier
+et al., J Biomech Eng 2015;137:041006, doi 10.1115/1.4029430: fibres and interfibre matrix).
 """
 from __future__ import annotations
 
