@@ -35,6 +35,7 @@ BUCKLED_EYE = '[mesh]\nbuilder = "buckled_eye"\n'
 BUCKLE_MATERIALS = EYE_MATERIALS + '[materials.band]\nmodel = "neo-hooke"\nc10 = 0.5\n'
 SMALL_EYE = "sector_deg = 90\nn_circ = 16\n"  # the quarter eye, coarse: built in a fraction of a second
 TIRE_MATERIAL = '[materials.tire]\nmodel = "neo-hooke"\nc10 = 0.5\n'
+FIBRES = '[materials.solid]\nmodel = "fibre-reinforced"\nc10 = 0.05\nk1 = 1.0\nk2 = 10.0\n{extra}'
 PRESSURE = '[[pressure]]\nsurface = "z1"\nvalue = 0.01\n'
 
 
@@ -251,6 +252,19 @@ CASES = {
                                        ["[materials.sclera]", "missing required key 'model'"]),
     "tissues-without-the-buckle": ('tissues = "calibrated"\n' + BUCKLED_EYE + SMALL_EYE,
                                    ["no [materials.<region>] table", "['band']", "build_buckled_eye"]),
+    # the fibre-reinforced law's keys
+    "fibre-k1-negative": (BLOCK + FIBRES.format(extra="").replace("k1 = 1.0", "k1 = -1.0") + ROLLERS,
+                          ["[materials.solid]", "k1 must be positive, got -1.0"]),
+    "fibre-k2-missing": (BLOCK + FIBRES.format(extra="").replace("k2 = 10.0\n", "") + ROLLERS,
+                         ["[materials.solid]", "missing required key 'k2'"]),
+    "fibre-axis-zero": (BLOCK + FIBRES.format(extra="axis = [0.0, 0.0, 0.0]\n") + ROLLERS,
+                        ["[materials.solid]", "axis must be a non-zero vector"]),
+    "fibre-centre-short": (BLOCK + FIBRES.format(extra="centre = [0.0, 0.0]\n") + ROLLERS,
+                           ["[materials.solid]", "centre must be a list of 3 finite numbers"]),
+    "fibre-angles-text": (BLOCK + FIBRES.format(extra='fibre_angles_deg = ["hoop"]\n') + ROLLERS,
+                          ["[materials.solid]", "fibre_angles_deg must be a list of finite numbers"]),
+    "fibre-unknown-key": (BLOCK + FIBRES.format(extra="k3 = 1.0\n") + ROLLERS,
+                          ["[materials.solid]", "k3"]),
     # the eye builder: the detachment, the proportions
     "eye-detachment-smaller-than-an-element": (  # fixed: opened elements far beyond the cap
         eye("sector_deg = 180\nn_circ = 16\ndetachment = { polar_deg = 30.0, extent_deg = 4.0, gap = 0.1 }\n"),

@@ -3,12 +3,25 @@
 Stresses and tangents come from ``ufl.derivative`` of the energy, never by hand (as
 fenicsx-pulse's material models). Incompressible laws depend on the reduced invariants; J = 1
 is enforced by the pressure Lagrange multiplier of the mixed formulation (``solid.py``).
+
+``FibreReinforced`` is the sclera as a collagen composite: a neo-Hookean matrix and families of
+fibres in the plane tangent to a sphere, each with the exponential energy of Holzapfel, Gasser &
+Ogden (J Elasticity 2000;61:1), W_f = k1 / (2 k2) (exp(k2 <I4bar - 1>^2) - 1), that acts only
+while the fibre is stretched (the Macaulay bracket <x> = max(x, 0): crimped collagen carries no
+compression; Battaglioli & Kamm, IOVS 1984;25:59, found the sclera's compressive modulus over a
+hundred times below its tensile one). The fibres lie in the tangent plane of the sphere about
+``centre``, at angles from the circumferential direction about ``axis`` towards the meridional
+one: scleral lamellae lie tangential to the scleral surface, in an isotropic matrix (the
+microstructural sclera models of Grytz et al., e.g. IOVS ARVO article 2277049, and of Coudrillier
+et al., J Biomech Eng 2015;137:041006, doi 10.1115/1.4029430: fibres and interfibre matrix).
 """
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import ufl
+from ufl.domain import extract_unique_domain
 
 from .. import checks
 from ..errors import SceneError
@@ -58,6 +71,69 @@ def NeoHooke(c10: float) -> MooneyRivlin:
     """Neo-Hooke, W = c10 (I1bar - 3): the seed's law for all soft tissue."""
     checks.number(c10, "c10", "positive")
     return MooneyRivlin({(1, 0): c10})
+
+
+@dataclasses.dataclass(frozen=True)
+class FibreReinforced:
+    """Neo-Hookean matrix and tension-only exponential fibres in the tangent plane of a sphere.
+
+    W = c10 (I1bar - 3) + sum over fibres a of k1 / (2 k2) (exp(k2 <I4bar - 1>^2) - 1), with
+    I4bar = J^(-2/3) a.C a and a = cos(angle) e_circ + sin(angle) e_merid at the reference point X:
+    e_r = (X - centre) / |X - centre|, e_circ along axis x e_r, e_merid = e_r x e_circ.
+
+    Args:
+        c10: matrix constant (MPa); k1: fibre stiffness (MPa); k2: fibre stiffening (-).
+        fibre_angles_deg: one fibre family per angle, from the circumferential direction.
+        axis, centre: the sphere's axis and centre (the eye builders': z and the origin).
+    """
+
+    c10: float
+    k1: float
+    k2: float
+    fibre_angles_deg: tuple = (0.0, 90.0)
+    axis: tuple = (0.0, 0.0, 1.0)
+    centre: tuple = (0.0, 0.0, 0.0)
+    incompressible = True
+    volume_ratio = 1.0
+
+    def __post_init__(self):
+        checks.number(self.c10, "c10", "positive")
+        checks.number(self.k1, "k1", "positive")
+        checks.number(self.k2, "k2", "positive")
+        checks.numbers(self.fibre_angles_deg, "fibre_angles_deg")
+        checks.nonzero_vector(self.axis, "axis")
+        checks.vector(self.centre, "centre")
+
+    @property
+    def shear_modulus(self) -> float:
+        """Initial shear modulus of the matrix, 2 c10 (the fibres are slack at rest)."""
+        return 2 * self.c10
+
+    @property
+    def youngs_modulus(self) -> float:
+        """Initial modulus in tension along a fibre, 6 c10 + 4 k1."""
+        return 6 * self.c10 + 4 * self.k1
+
+    def fibre_directions(self, X: ufl.core.expr.Expr) -> list:
+        """The unit fibre directions at the reference point X (UFL vectors)."""
+        radial = X - ufl.as_vector(self.centre)
+        radial = radial / ufl.sqrt(ufl.dot(radial, radial))
+        circumferential = ufl.cross(ufl.as_vector(self.axis), radial)
+        # off the axis; the regularisation only acts within 1e-12 of it, where no quadrature point lies
+        circumferential = circumferential / ufl.sqrt(ufl.dot(circumferential, circumferential) + 1e-24)
+        meridional = ufl.cross(radial, circumferential)
+        return [math.cos(math.radians(angle)) * circumferential + math.sin(math.radians(angle)) * meridional
+                for angle in self.fibre_angles_deg]
+
+    def strain_energy(self, F: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+        I1bar, _, J = reduced_invariants(F)
+        C = F.T * F
+        W = self.c10 * (I1bar - 3)
+        for a in self.fibre_directions(ufl.SpatialCoordinate(extract_unique_domain(F))):
+            stretch = J ** (-2 / 3) * ufl.dot(a, C * a) - 1
+            taut = ufl.conditional(ufl.gt(stretch, 0), stretch, 0)
+            W = W + self.k1 / (2 * self.k2) * (ufl.exp(self.k2 * taut**2) - 1)
+        return W
 
 
 @dataclasses.dataclass(frozen=True)

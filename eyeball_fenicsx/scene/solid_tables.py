@@ -11,7 +11,7 @@ from mpi4py import MPI
 
 from ..errors import SceneError
 from ..features.loads import Dirichlet, NodalForce, Pressure
-from ..mechanics.materials import LinearElastic, MooneyRivlin, NeoHooke
+from ..mechanics.materials import FibreReinforced, LinearElastic, MooneyRivlin, NeoHooke
 from ..mechanics.solid import ELEMENTS
 from ..meshing.builders import band, block, buckled_eye, eye, sphere_octant
 from ..meshing.load import MeshData, built_mesh, load_mesh
@@ -60,7 +60,7 @@ def read_materials(reading: Reading) -> None:
                          for region, (t, where) in tables.items()}  # keys are checked per model
 
 
-def material_table(table: Table) -> MooneyRivlin | LinearElastic:
+def material_table(table: Table) -> MooneyRivlin | LinearElastic | FibreReinforced:
     """A [materials.<region>] table -> its material law."""
     model = table.get("model", "string", required=True)
     if model == "neo-hooke":
@@ -73,8 +73,16 @@ def material_table(table: Table) -> MooneyRivlin | LinearElastic:
         Table(table.data, table.where, {"model", "E", "nu"})
         law, arguments = LinearElastic, [table.get("E", "positive", required=True),
                                          table.get("nu", "number", required=True)]
+    elif model == "fibre-reinforced":
+        Table(table.data, table.where, {"model", "c10", "k1", "k2", "fibre_angles_deg", "axis", "centre"})
+        law = FibreReinforced
+        arguments = [table.get(key, "positive", required=True) for key in ("c10", "k1", "k2")]
+        arguments += [tuple(table.get("fibre_angles_deg", "numbers", [0.0, 90.0])),
+                      tuple(table.get("axis", "vector", [0.0, 0.0, 1.0])),
+                      tuple(table.get("centre", "vector", [0.0, 0.0, 0.0]))]
     else:
-        raise table.error(f"unknown model {model!r}: choose neo-hooke, mooney-rivlin or linear-elastic")
+        raise table.error(f"unknown model {model!r}: choose neo-hooke, mooney-rivlin, linear-elastic or "
+                          "fibre-reinforced")
     with table.located():  # the law's own checks: nu < 0.5, c10 + c01 > 0, ...
         return law(*arguments)
 
