@@ -25,7 +25,8 @@ With a buckle (the name of its inner surface: "band_inner", "tire_inner" or "spo
   direction of their summed horizontal unit vectors). Under: the sclera's nodes in the footprint
   (reference positions); around: those more than one buckle width away across the buckle, in
   polar angle for a band or a circumferential tire (its footprint longer in azimuth than in the
-  meridian), in azimuth for a radial sponge (longer in the meridian). The minimum is the deepest
+  meridian), in azimuth for a radial sponge (longer in the meridian; and a width away from the
+  azimuths opposite it, where the next measure looks). The minimum is the deepest
   point of the indentation, for any buckle; the mean around it takes out what moves the whole
   globe (its inflation by the IOP, its elongation). Zero in the reference state and under any
   uniform expansion of the globe. A globe that inflates unevenly reads a few hundredths of a mm
@@ -239,8 +240,9 @@ class EyeMeasures(Observer):
         self.under = in_polar & (np.abs(_turn(azimuth - middle)) <= half + 1e-9)
         if 2 * half * math.sin(0.5 * (lo + hi)) >= hi - lo:  # longer in azimuth: across is the meridian
             self.around = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)
-        else:  # a radial sponge: across is the azimuth
-            self.around = np.abs(_turn(azimuth - middle)) > 3 * half
+        else:  # a radial sponge: across is the azimuth, away from it and from the opposite side
+            away = np.abs(_turn(azimuth - middle))
+            self.around = (away > 3 * half) & (away < math.pi - 3 * half)
         self.opposite = None
         if half < 0.5 * math.pi - 1e-9:
             self.opposite = in_polar & (np.abs(_turn(azimuth - middle - math.pi)) <= half + 1e-9)
