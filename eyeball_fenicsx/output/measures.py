@@ -20,26 +20,26 @@ With a buckle (the name of its inner surface: "band_inner", "tire_inner" or "spo
   from the optic nerve to the limbus, so no node needs leaving out) the radial displacement
   u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes *around* the
   buckle minus the least u_r of the nodes *under* it. Seen from the origin, the buckle's inner
-  surface covers a *footprint* on the sclera: a range of polar angles, and a range of azimuths
-  about its middle (all of them for an encircling band; the azimuths of its nodes, about the
-  direction of their summed horizontal unit vectors). Under: the sclera's nodes in the footprint
-  (reference positions); around: those more than one buckle width away across the buckle, in
-  polar angle for a band or a circumferential tire (its footprint longer in azimuth than in the
-  meridian), in azimuth for a radial sponge (longer in the meridian; and a width away from the
-  azimuths opposite it, where the next measure looks). The minimum is the deepest
-  point of the indentation, for any buckle; the mean around it takes out what moves the whole
-  globe (its inflation by the IOP, its elongation). Zero in the reference state and under any
-  uniform expansion of the globe. A globe that inflates unevenly reads a few hundredths of a mm
-  without any indentation (-0.02 to -0.06 mm for the buckled eye's sclera at 15 mmHg: the thin
-  equator bulges most), far below the 0.5 to 1.5 mm of a buckle (docs/published_figures.md,
-  section 4).
+  surface covers a *footprint*: a range of polar angles, and a range of azimuths about its
+  middle (all of them for an encircling band; the azimuths of its nodes, about the direction of
+  their summed horizontal unit vectors). Under: the sclera's nodes in the footprint (reference
+  positions); around: the sclera beside it, more than one buckle width away across the buckle
+  and over the buckle's extent along it: in polar angle at the buckle's azimuths for a band or
+  a circumferential tire (a footprint longer in azimuth than in the meridian), in azimuth within
+  its polar range for a radial sponge (longer in the meridian; out to 90 degrees from its
+  middle). The minimum is the deepest point of the indentation, for any buckle; the mean beside
+  it takes out what moves that part of the globe (its inflation by the IOP, its elongation).
+  Zero in the reference state and under any uniform expansion of the globe. A globe that
+  inflates unevenly reads a few hundredths of a mm without any indentation (-0.02 to -0.07 mm
+  for the buckled eye's sclera at 15 mmHg: the thin equator bulges most), far below the 0.5 to
+  1.5 mm of a buckle (docs/published_figures.md, section 4).
 * ``opposite_indentation_mm``, for a buckle over less than half of the azimuths (a segmental
-  tire, a radial sponge): the same measure with the footprint turned by 180 degrees about the
-  optic axis, on the sclera diametrically opposite the buckle (the same nodes around). A buckle
-  indents the sclera under itself only, so the change of this measure over an operation stays a
-  small fraction of that of ``buckle_height_mm``; the uneven inflation is in both. In a wedge
-  model it reads the part of the turned footprint that the model holds (for a tire centred on a
-  cut plane, the other cut plane's meridian: the middle of the turned footprint).
+  tire, a radial sponge): the same measure, footprint and sclera beside it turned by 180 degrees
+  about the optic axis, diametrically opposite the buckle. A buckle indents the sclera under
+  itself only, so the change of this measure over an operation stays a small fraction of that
+  of ``buckle_height_mm``; the uneven inflation is in both. In a wedge model it reads the part
+  of the turned footprint that the model holds (for a tire centred on a cut plane, the other cut
+  plane's meridian: the middle of the turned footprint).
 
 With a detachment (the retina's outer surface "retina_outer" and the choroid's inner surface
 "choroid_inner", the two faces of the subretinal gap of eyeball_fenicsx/meshing/builders/eye.py):
@@ -237,36 +237,36 @@ class EyeMeasures(Observer):
         X = self.X[self.sclera_nodes]
         polar, azimuth = polar_angle(X), np.arctan2(X[:, 1], X[:, 0])
         in_polar = (polar >= lo - 1e-9) & (polar <= hi + 1e-9)
-        self.under = in_polar & (np.abs(_turn(azimuth - middle)) <= half + 1e-9)
-        if 2 * half * math.sin(0.5 * (lo + hi)) >= hi - lo:  # longer in azimuth: across is the meridian
-            self.around = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)
-        else:  # a radial sponge: across is the azimuth, away from it and from the opposite side
-            away = np.abs(_turn(azimuth - middle))
-            self.around = (away > 3 * half) & (away < math.pi - 3 * half)
-        self.opposite = None
-        if half < 0.5 * math.pi - 1e-9:
-            self.opposite = in_polar & (np.abs(_turn(azimuth - middle - math.pi)) <= half + 1e-9)
-            if not comm.allreduce(self.opposite.sum(), op=MPI.SUM):
-                self.opposite = None  # a wedge that does not hold it
-        under, around = comm.allreduce(np.array([self.under.sum(), self.around.sum()]), op=MPI.SUM)
+        along_meridian = 2 * half * math.sin(0.5 * (lo + hi)) < hi - lo  # a radial sponge
+
+        def footprint(at):
+            """The sclera's nodes under the footprint turned to the azimuth ``at``, and around it."""
+            away = np.abs(_turn(azimuth - at))
+            if along_meridian:  # beside it, a width away in azimuth, on its side of the eye
+                return in_polar & (away <= half + 1e-9), in_polar & (away > 3 * half) & (away < 0.5 * math.pi)
+            beside = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a width away in the meridian, at its azimuths
+            return in_polar & (away <= half + 1e-9), beside & (away <= half + 1e-9)
+
+        self.footprints = {"buckle_height_mm": footprint(middle)}
+        under, around = (comm.allreduce(int(m.sum()), op=MPI.SUM) for m in self.footprints["buckle_height_mm"])
         if not under or not around:
             raise SceneError(f"[eye]: {self.sclera!r} has {under} node(s) under the buckle {self.buckle!r} "
                              f"(polar angles {np.degrees(lo):.1f} to {np.degrees(hi):.1f} deg from the "
                              f"posterior pole) and {around} around it: is the buckle on that surface?")
+        if half < 0.5 * math.pi - 1e-9:
+            opposite = footprint(middle + math.pi)
+            if all(comm.allreduce(int(m.sum()), op=MPI.SUM) for m in opposite):  # not in a wedge that lacks it
+                self.footprints["opposite_indentation_mm"] = opposite
 
     def _buckle_height(self):
         X = self.X[self.sclera_nodes]
         radial = np.linalg.norm(self._positions()[self.sclera_nodes], axis=1) - np.linalg.norm(X, axis=1)
         comm = self.solid.comm
-        around = comm.allreduce(np.array([radial[self.around].sum(), self.around.sum()]), op=MPI.SUM)
-        around = around[0] / around[1]
-
-        def deepest(nodes):
-            return comm.allreduce(radial[nodes].min() if nodes.any() else np.inf, op=MPI.MIN)
-
-        result = {"buckle_height_mm": float(around - deepest(self.under))}
-        if self.opposite is not None:
-            result["opposite_indentation_mm"] = float(around - deepest(self.opposite))
+        result = {}
+        for key, (under, around) in self.footprints.items():
+            mean = comm.allreduce(np.array([radial[around].sum(), around.sum()]), op=MPI.SUM)
+            deepest = comm.allreduce(radial[under].min() if under.any() else np.inf, op=MPI.MIN)
+            result[key] = float(mean[0] / mean[1] - deepest)
         return result
 
     def _detachment(self):
