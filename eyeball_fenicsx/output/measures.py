@@ -16,23 +16,25 @@
 With a buckle (the name of its inner surface: "band_inner", "tire_inner" or "sponge_inner"):
 
 * ``buckle_height_mm``: how deep the buckle indents the sclera. Over the nodes of the sclera's
-  outer surface ("sclera_outer": in eyeball_fenicsx/meshing/builders/eye.py all of it is on the sphere about the origin,
-  from the optic nerve to the limbus, so no node needs leaving out) the radial displacement
-  u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes *around* the
-  buckle minus the least u_r of the nodes *under* it. Seen from the origin, the buckle's inner
-  surface covers a *footprint*: a range of polar angles, and a range of azimuths about its
-  middle (all of them for an encircling band; the azimuths of its nodes, about the direction of
-  their summed horizontal unit vectors). Under: the sclera's nodes in the footprint (reference
-  positions); around: the sclera beside it, more than one buckle width away across the buckle
-  and over the buckle's extent along it: in polar angle at the buckle's azimuths for a band or
-  a circumferential tire (a footprint longer in azimuth than in the meridian), in azimuth within
-  its polar range for a radial sponge (longer in the meridian; out to 90 degrees from its
-  middle). The minimum is the deepest point of the indentation, for any buckle; the mean beside
-  it takes out what moves that part of the globe (its inflation by the IOP, its elongation).
-  Zero in the reference state and under any uniform expansion of the globe. A globe that
-  inflates unevenly reads a few hundredths of a mm without any indentation (-0.02 to -0.07 mm
-  for the buckled eye's sclera at 15 mmHg: the thin equator bulges most), far below the 0.5 to
-  1.5 mm of a buckle (docs/published_figures.md, section 4).
+  outer surface ("sclera_outer": in eyeball_fenicsx/meshing/builders/eye.py all of it is on the
+  sphere about the origin, from the optic nerve to the limbus, so no node needs leaving out) the
+  radial displacement u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes
+  *around* the buckle minus the least u_r of the nodes *under* it. Seen from the origin, the
+  buckle's inner surface covers a *footprint*: a range of polar angles, and a range of azimuths
+  about its middle (all of them for an encircling band; the azimuths of its nodes, about the
+  direction of their summed horizontal unit vectors). Under: the sclera's nodes in the footprint
+  (reference positions); around: the sclera beside it, more than one buckle width away across the
+  buckle and over the buckle's extent along it: in polar angle at the buckle's azimuths for a band
+  or a circumferential tire (a footprint longer in azimuth than in the meridian), in azimuth
+  within its polar range for a radial sponge (longer in the meridian; out to 90 degrees from its
+  middle, and taken ring by ring: the sponge's footprint spans some 47 degrees of polar angle,
+  over which the inflated globe's radius varies, so each node under it is compared with the sclera
+  beside it at its own polar angle). The largest depth is the deepest point of the indentation,
+  for any buckle; the mean beside it takes out what moves that part of the globe (its inflation by
+  the IOP, its elongation). Zero in the reference state and under any uniform expansion of the
+  globe. A globe that inflates unevenly reads a few hundredths of a mm without any indentation
+  (-0.02 to -0.07 mm for the buckled eye's sclera at 15 mmHg: the thin equator bulges most), far
+  below the 0.5 to 1.5 mm of a buckle (docs/published_figures.md, section 4).
 * ``opposite_indentation_mm``, for a buckle over less than half of the azimuths (a segmental
   tire, a radial sponge): the same measure, footprint and sclera beside it turned by 180 degrees
   about the optic axis, diametrically opposite the buckle. A buckle indents the sclera under
@@ -247,6 +249,11 @@ class EyeMeasures(Observer):
             beside = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a width away in the meridian, at its azimuths
             return in_polar & (away <= half + 1e-9), beside & (away <= half + 1e-9)
 
+        # the sclera beside a sponge is compared ring by ring (its footprint spans some 47 degrees of
+        # polar angle, over which the inflated globe's radius varies); beside a band or tire, as one
+        rings = np.round(polar, 6) if along_meridian else np.zeros(len(polar))
+        keys = np.unique(np.concatenate(comm.allgather(np.unique(rings))))
+        self.rings, self.num_rings = np.searchsorted(keys, rings), len(keys)
         self.footprints = {"buckle_height_mm": footprint(middle)}
         under, around = (comm.allreduce(int(m.sum()), op=MPI.SUM) for m in self.footprints["buckle_height_mm"])
         if not under or not around:
@@ -264,9 +271,13 @@ class EyeMeasures(Observer):
         comm = self.solid.comm
         result = {}
         for key, (under, around) in self.footprints.items():
-            mean = comm.allreduce(np.array([radial[around].sum(), around.sum()]), op=MPI.SUM)
-            deepest = comm.allreduce(radial[under].min() if under.any() else np.inf, op=MPI.MIN)
-            result[key] = float(mean[0] / mean[1] - deepest)
+            sums = np.zeros((2, self.num_rings))
+            np.add.at(sums[0], self.rings[around], radial[around])
+            np.add.at(sums[1], self.rings[around], 1.0)
+            sums = comm.allreduce(sums, op=MPI.SUM)
+            beside = sums[0] / np.maximum(sums[1], 1.0)  # the mean u_r beside the buckle, per ring
+            depth = (beside[self.rings] - radial)[under & (sums[1][self.rings] > 0)]
+            result[key] = float(comm.allreduce(depth.max() if len(depth) else -np.inf, op=MPI.MAX))
         return result
 
     def _detachment(self):
