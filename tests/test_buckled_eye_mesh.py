@@ -365,3 +365,48 @@ def test_suture_on_a_cut_plane_is_kept_at_half_share():
     sutures = buckled_eye.suture_points({"n_circ": 16, "sector_deg": 180.0, "tire": tire}, count=4)
     shares = sorted((s["azimuth_deg"], s["side"], s["share"]) for s in sutures)
     assert shares == [(0.0, "back", 0.5), (0.0, "front", 0.5), (22.5, "back", 1.0), (22.5, "front", 1.0)]
+
+
+def test_radial_sponge_and_its_sutures():
+    """A radial sponge at 45 degrees: a shell zone along the meridian, its length and width on its
+    inner surface as asked, and its sutures across it in pairs symmetric about its middle azimuth,
+    their bites on the sclera half the suture width from it along the circle of latitude."""
+    sponge = {"width": 5.0, "height": 2.0, "length": 10.0, "azimuth_deg": 45.0}
+    parameters = {"n_circ": N_CIRC, "sector_deg": 360.0, "sponge": sponge}
+    mesh, layout = buckled_eye.buckled_eye_geometry(**parameters)
+    body = layout.bodies["sponge"]
+    assert body.inner_radius * (body.theta[1] - body.theta[0]) == pytest.approx(10.0, rel=1e-12)
+    middle = 0.5 * sum(body.theta)
+    assert middle == pytest.approx(layout.centre_theta, rel=1e-12)  # centred on the band's centre line
+    width = body.inner_radius * math.sin(middle) * (body.azimuths[-1] - body.azimuths[0])
+    assert width == pytest.approx(5.0, rel=1e-12)
+    assert 0.5 * (body.azimuths[0] + body.azimuths[-1]) == pytest.approx(math.radians(45.0), rel=1e-12)
+    # the mesh volume against the smooth zone: the facets inscribed in it lose about a^2 / 6 in each
+    # curved direction, a = 0.051 rad the element's angle (16 elements over 47 degrees, 8 over 23.5):
+    # 9e-4 in all, below 2e-3
+    info = mesh.info["sponge"]
+    assert info["volume"] == pytest.approx(info["smooth_volume"], rel=2e-3)
+    assert {"sponge_inner", "sponge_outer", "sponge_side_0", "sponge_side_1"} <= set(mesh.surfaces)
+    sutures = buckled_eye.suture_points(parameters, count=2)
+    assert len(sutures) == 4
+    for first, second in zip(sutures[::2], sutures[1::2]):
+        bites = [np.array(s["sclera"]) for s in (first, second)]
+        assert [np.linalg.norm(b) for b in bites] == pytest.approx([layout.globe_radius] * 2, rel=1e-12)
+        azimuths = [math.atan2(b[1], b[0]) for b in bites]
+        assert 0.5 * sum(azimuths) == pytest.approx(math.radians(45.0), rel=1e-12)
+        rho = math.hypot(*bites[0][:2])
+        footprint = 5.0 * layout.globe_radius / body.inner_radius  # its width seen on the sclera, at the centre line
+        expected = footprint + 2 * buckled_eye.SUTURE_MARGIN
+        assert rho * abs(azimuths[1] - azimuths[0]) == pytest.approx(expected, rel=1e-12)
+    with pytest.raises(SceneError, match="needs the whole eye"):
+        buckled_eye.buckle_layout(n_circ=N_CIRC, sector_deg=180.0, sponge=sponge)
+
+
+def test_sutures_spread_symmetrically_over_a_tire():
+    """Four suture azimuths over a 60-degree tire at 45 degrees on the default eye (nodes 9 degrees
+    apart): 22.5 and 67.5 lie halfway between two nodes; each goes to the one nearer the middle, so
+    the sutures are symmetric about 45 degrees (27, 36, 54, 63)."""
+    tire = {"width": 4.0, "height": 1.0, "arc_deg": 60.0, "azimuth_deg": 45.0}
+    sutures = buckled_eye.suture_points({"n_circ": 40, "sector_deg": 360.0, "tire": tire}, count=4)
+    azimuths = sorted({s["azimuth_deg"] for s in sutures})
+    assert azimuths == pytest.approx([27.0, 36.0, 54.0, 63.0], abs=1e-9)

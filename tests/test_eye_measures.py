@@ -214,3 +214,38 @@ def test_eye_keys_are_checked(keys, fragment, tmp_path_factory):
     with pytest.raises(SceneError, match=fragment) as error:
         load_scene(scene_file(folder, text), COMM)
     assert "[eye]" in str(error.value)
+
+
+@pytest.mark.parametrize("buckle", [{"tire": {"width": 4.0, "height": 1.0, "arc_deg": 60.0, "azimuth_deg": 45.0}},
+                                    {"sponge": {"azimuth_deg": 45.0}}], ids=["tire", "sponge"])
+def test_indentation_under_and_opposite(buckle):
+    """A segmental buckle at 45 degrees on the whole eye: a dent prescribed under it reads d under
+    it and nothing opposite; the same dent turned by 180 degrees reads d opposite and nothing under
+    (the footprints are geometry: the buckle's polar and azimuthal range, turned about the axis)."""
+    parameters = {"sector_deg": 360.0, "n_circ": 16, **buckle}
+    data = built_mesh(buckled_eye.build_buckled_eye, COMM, **parameters)
+    solid = MixedSolid(data, {region: NeoHooke(0.05) for region in data.regions})
+    name = next(iter(buckle))
+    measures = EyeMeasures([0.0, 0.0, 1e3], [0.0, 0.0, -1e3], "cornea_outer", "vitreous_wall", buckle=f"{name}_inner")
+    measures.setup(solid)
+    body = buckled_eye.buckle_layout(**parameters).bodies[name]
+    middle_polar, middle = 0.5 * sum(body.theta), math.radians(body.azimuth_deg)
+    half_polar = 0.5 * (body.theta[1] - body.theta[0])
+    half_azimuth = 0.5 * (body.azimuths[-1] - body.azimuths[0])
+
+    def dent(at, d=0.3):
+        """The globe inflated by 2 %, and pushed in by d over the middle half of the footprint at ``at``."""
+        def displacement(X):
+            azimuth = np.angle(np.exp(1j * (np.arctan2(X[:, 1], X[:, 0]) - at)))
+            inside = (np.abs(polar(X) - middle_polar) < half_polar / 2) & (np.abs(azimuth) < half_azimuth / 2)
+            return 0.02 * X - d * inside[:, None] * X / np.linalg.norm(X, axis=1)[:, None]
+        return displacement
+
+    prescribe(solid, dent(middle))
+    under = measures.report()
+    assert under["buckle_height_mm"] == pytest.approx(0.3, rel=1e-9)
+    assert abs(under["opposite_indentation_mm"]) < 1e-12
+    prescribe(solid, dent(middle + math.pi))
+    opposite = measures.report()
+    assert opposite["opposite_indentation_mm"] == pytest.approx(0.3, rel=1e-9)
+    assert abs(opposite["buckle_height_mm"]) < 1e-12

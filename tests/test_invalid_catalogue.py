@@ -62,6 +62,12 @@ def eye(parameters):
     return '[mesh]\nbuilder = "eye"\n' + parameters + EYE_MATERIALS
 
 
+def sponge(keys, parameters="sector_deg = 360\nn_circ = 16\n"):
+    """The whole buckled eye with a radial sponge (``keys``: its TOML inline table)."""
+    return (BUCKLED_EYE + f"sponge = {keys}\n" + parameters + EYE_MATERIALS
+            + '[materials.sponge]\nmodel = "neo-hooke"\nc10 = 0.5\n')
+
+
 def tire(keys, parameters=""):
     """The buckled eye with a tire (``keys``: its TOML inline table)."""
     return BUCKLED_EYE + f"tire = {keys}\n" + parameters + BUCKLE_MATERIALS + TIRE_MATERIAL
@@ -304,6 +310,24 @@ CASES = {
     "buckle-sutures-outside-the-tire": (tire("{ arc_deg = 90.0 }") + "[buckle_sutures]\nazimuths = [180.0]\n"
                                         "tension = 0.1\n",
                                         ["[buckle_sutures]", "no suture at azimuth 180.0 deg, outside the tire"]),
+    # the buckled eye's radial sponge
+    "sponge-in-a-wedge": (sponge("{ azimuth_deg = 45.0 }", "sector_deg = 180\n"),
+                          ["[mesh]", "a radial sponge needs the whole eye (sector_deg = 360)", "180"]),
+    "sponge-with-a-tire": (sponge("{ azimuth_deg = 45.0 }", "sector_deg = 360\ntire = { arc_deg = 60.0 }\n"),
+                           ["[mesh]", "a radial sponge rests on the sclera alone"]),
+    "sponge-negative-width": (sponge("{ width = -5.0 }"), ["[mesh]", "sponge width", "-5.0"]),
+    "sponge-unknown-key": (sponge("{ diameter = 5.0 }"), ["[mesh]", "sponge must be None or a table", "length"]),
+    "sponge-azimuth-not-a-number": (sponge('{ azimuth_deg = "temporal" }'),
+                                    ["[mesh]", "sponge azimuth_deg must be a number", "temporal"]),
+    "sponge-zero-elements": (sponge("{ n_length = 0 }"), ["[mesh]", "sponge n_length", "0"]),
+    "sponge-off-the-sclera": (sponge("{ length = 30.0 }"), ["[mesh]", "must rest on the sclera between"]),
+    "sponge-wider-than-half-the-eye": (sponge("{ width = 40.0 }"), ["[mesh]", "spans half the eye's azimuths"]),
+    "sponge-sutures-at-azimuths": (sponge("{ azimuth_deg = 45.0 }") + "[buckle_sutures]\nazimuths = [45.0]\n"
+                                   "tension = 0.1\n",
+                                   ["[buckle_sutures]", "a radial sponge's sutures cross it along its length"]),
+    "sponge-sutures-too-narrow": (sponge("{ azimuth_deg = 45.0 }") + "[buckle_sutures]\nwidth = 4.0\n"
+                                  "tension = 0.1\n",
+                                  ["[buckle_sutures]", "suture_width 4.0 must exceed the sponge's width"]),
     # [eye]
     "eye-buckle-on-an-eye-without-one": (eye(SMALL_EYE) + '[eye]\nbuckle = "band_inner"\n',
                                          ["[eye]", "surface 'band_inner'", "build_eye"]),

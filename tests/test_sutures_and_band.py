@@ -7,7 +7,8 @@ from scipy.optimize import brentq
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import uniaxial_nominal_stress
 from eyeball_fenicsx.features.band import BandTightening
-from eyeball_fenicsx.features.sutures import Suture
+from eyeball_fenicsx.features.sutures import SLIDE_STIFFNESS, SUTURE_EA, Suture
+from eyeball_fenicsx.mechanics.solid import MixedSolid
 from eyeball_fenicsx.meshing.builders.band import build_band
 from eyeball_fenicsx.meshing.load import built_mesh
 
@@ -101,3 +102,40 @@ def test_bilateral_sutures_also_push(block_mesh):
     _, final = pulled_block(block_mesh, sutures + [ef.NodalForce([F, 0.0, 0.0], surface="x1")])
     assert final["probes"]["corner"][0] == pytest.approx(u, rel=1e-5)
     assert final["sutures"]["s0"]["tension"] == pytest.approx(-k * u, rel=1e-4)
+
+
+def test_tied_loop_resists_a_slide_across_its_string(block_mesh):
+    """A bilateral suture between two nodes, its second end moved: its force on that end is minus
+    the gradient of Pi = k/2 (l - l_0)^2 + k_s/2 (s . (u_b - u_a))^2 (sutures.py: s = E x N / |E x N|,
+    N = X_a / |X_a| here, k_s = SLIDE_STIFFNESS k), and its tangent the Hessian, both checked
+    against central differences of that potential written out here; a slide along s alone meets
+    k_s."""
+    solid = MixedSolid(block_mesh((2, 2, 2)), {"solid": ef.NeoHooke(0.5)})
+    a, b = np.array([1.0, 0.0, 0.0]), np.array([1.0, 1.0, 1.0])
+    suture = Suture("s", a, b, shortening=0.0, bilateral=True)
+    suture.setup(solid)
+    suture.set_load_factor(0.0)
+    k = SUTURE_EA / np.sqrt(2.0)
+    s = np.cross(b - a, a) / np.linalg.norm(np.cross(b - a, a))
+
+    def potential(ub):
+        return (0.5 * k * (np.linalg.norm(b + ub - a) - np.sqrt(2.0)) ** 2
+                + 0.5 * SLIDE_STIFFNESS * k * (s @ ub) ** 2)
+
+    def pulled(ub):
+        """The force the suture puts on its second end with that end displaced by ub."""
+        if solid.comm.rank == suture.b.owner:
+            solid.w.x.array[suture.b.local] = ub
+        suture.state_changed()
+        return np.array(suture.report()["force_on_second"])
+
+    ub, h = np.array([0.01, -0.02, 0.015]), 1e-6
+    unit = np.eye(3)
+    gradient = np.array([(potential(ub + h * e) - potential(ub - h * e)) / (2 * h) for e in unit])
+    assert pulled(ub) == pytest.approx(-gradient, rel=1e-6, abs=1e-9)
+    pulled(ub)
+    hessian = np.array([(pulled(ub - h * e) - pulled(ub + h * e)) / (2 * h) for e in unit]).T
+    pulled(ub)
+    assert suture._block() == pytest.approx(hessian, rel=1e-5, abs=1e-7)
+    # slid by 1e-3 along s (across the string, which lengthens by 1e-6 / 2 l_0 only): held back by k_s
+    assert s @ pulled(1e-3 * s) == pytest.approx(-SLIDE_STIFFNESS * k * 1e-3, rel=1e-3)

@@ -12,7 +12,20 @@ end may instead be a fixed point in space (``anchored=True``): the surgeon's han
 
 A suture tied around a buckle holds it both ways (``bilateral=True``, the seed's constrained
 suture points): it also resists shortening, T = k (l - l_rest) of either sign, so the
-buckle cannot float off or slide on the sclera before contact holds it.
+buckle cannot float off the sclera before contact holds it. Nor slide along it: a string
+has no stiffness across itself but T / l, none while it is slack, and the strings of a
+buckle's sutures all lie in the planes through the sclera's normal at their bites (the
+meridian planes of a tire, the planes of latitude of a radial sponge), so a buckle on the
+frictionless sphere could slide along the sclera across its strings, a motion that neither
+contact nor the strings resist: the problem has no unique answer and Newton's matrix is
+singular (a half model's symmetry plane hides it for a tire centred on it; the whole eye does
+not). The tied loop therefore also resists that motion, across the string and along the
+sclera: the relative displacement of its ends along s = E x N / |E x N| (E the string's
+reference direction, N the sclera's normal at the bite, both fixed) is held by a spring of
+``SLIDE_STIFFNESS`` times the string's stiffness, Pi_s = k_s / 2 (s . (u_b - u_a))^2, which
+picks the state that has not slid and carries almost nothing (a thousandth of the string's
+stiffness: a slide of 0.1 mm costs 1e-4 of k, against the string's tensions of k times a
+tenth of a mm).
 
 Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E about
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
@@ -32,6 +45,7 @@ from ..mechanics.solid import MaterialNode, MixedSolid
 from .base import Feature
 
 SUTURE_EA = 40.0  # N, 5-0 polyester (see the module docstring)
+SLIDE_STIFFNESS = 1e-3  # a tied loop's hold against sliding across it, per unit of the string's stiffness
 
 
 class Suture(Feature):
@@ -80,6 +94,14 @@ class Suture(Feature):
                              f"{self.second_point.tolist()}, are the same mesh node; move them apart")
         if self.shortening is not None and self.stiffness is None:
             self.stiffness = SUTURE_EA / self.initial_length
+        self.across = np.zeros(3)  # s, the direction of the loop's slide spring (bilateral only)
+        if self.bilateral and not self.anchored:
+            xa, xb = self.a.reference, self.b.reference
+            across = np.cross(xb - xa, xa)  # the sclera's normal at the bite: the radius (its centre is the origin)
+            if np.linalg.norm(across) > 1e-12 * np.linalg.norm(xa) * self.initial_length:
+                self.across = across / np.linalg.norm(across)
+            stiffness = self.stiffness if self.stiffness is not None else SUTURE_EA / self.initial_length
+            self.slide_stiffness = SLIDE_STIFFNESS * stiffness
 
     def _check_ends(self, solid):
         """An end ties the mesh node nearest to its point: a point farther from every node than the
@@ -106,6 +128,8 @@ class Suture(Feature):
 
     def state_changed(self) -> None:
         xa, xb = self._ends()
+        if self.across.any():  # the loop's slide: s . (u_b - u_a)
+            self.slide = self.across @ ((xb - self.b.reference) - (xa - self.a.reference))
         self.length = np.linalg.norm(xb - xa)
         self.direction = (xb - xa) / self.length
         if self.tension is not None:
@@ -118,13 +142,19 @@ class Suture(Feature):
             self.force, self.slope = (k * stretch, k) if taut else (0.0, 0.0)
 
     def _block(self):
-        e = self.direction
-        return self.slope * np.outer(e, e) + self.force / self.length * (np.eye(3) - np.outer(e, e))
+        e, s = self.direction, self.across
+        block = self.slope * np.outer(e, e) + self.force / self.length * (np.eye(3) - np.outer(e, e))
+        return block + self.share * self.slide_stiffness * np.outer(s, s) if s.any() else block
+
+    def _pull(self):
+        """The force on the first end, toward the second: the string's, and the loop's hold."""
+        f = self.force * self.direction
+        return f + self.share * self.slide_stiffness * self.slide * self.across if self.across.any() else f
 
     def add_to_residual(self, b: PETSc.Vec) -> None:
         if self.comm.rank != self.a.owner:  # one rank adds, PETSc sends rows to their owners
             return
-        f = self.force * self.direction
+        f = self._pull()
         b.setValues(self.a.dofs, -f, addv=PETSc.InsertMode.ADD_VALUES)
         if self.b is not None:
             b.setValues(self.b.dofs, f, addv=PETSc.InsertMode.ADD_VALUES)
@@ -151,4 +181,4 @@ class Suture(Feature):
         second end in the model (-share T e; the first end takes +share T e)."""
         return {"tension": float(self.force / self.share), "share": self.share, "length": float(self.length),
                 "initial_length": float(self.initial_length),
-                "force_on_second": (-self.force * self.direction).tolist()}
+                "force_on_second": (-self._pull()).tolist()}

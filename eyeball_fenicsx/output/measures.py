@@ -13,21 +13,35 @@
 * ``iop_mmHg``: the vitreous pressure (1 MPa = 7500.62 mmHg);
 * ``max_mises_MPa``: the largest von Mises stress (element midpoints) per tissue.
 
-With a buckle (the name of its inner surface, "band_inner" or "tire_inner"):
+With a buckle (the name of its inner surface: "band_inner", "tire_inner" or "sponge_inner"):
 
 * ``buckle_height_mm``: how deep the buckle indents the sclera. Over the nodes of the sclera's
-  outer surface ("sclera_outer": in eyeball_fenicsx/meshing/builders/eye.py all of it is on the sphere about the origin,
-  from the optic nerve to the limbus, so no node needs leaving out) the radial displacement
-  u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes *around* the
-  buckle minus the least u_r of the nodes *under* it. Under: the reference polar angle (seen
-  from the origin) within the polar range of the buckle's inner surface; around: more than
-  one buckle width (in polar angle) from that range. The minimum is the deepest point of the
-  indentation, for an encircling band and a segmental tire alike; the mean around it takes
-  out what moves the whole globe (its inflation by the IOP, its elongation). Zero in the
-  reference state and under any uniform expansion of the globe. A globe that inflates
-  unevenly reads a few hundredths of a mm without any indentation (-0.02 to -0.04 mm for the
-  buckled eye's sclera, not touching its band, at 15 mmHg: the thin equator bulges most), far
+  outer surface ("sclera_outer": in eyeball_fenicsx/meshing/builders/eye.py all of it is on the
+  sphere about the origin, from the optic nerve to the limbus, so no node needs leaving out) the
+  radial displacement u_r = |x| - |X| (outward positive); the height is the mean u_r of the nodes
+  *around* the buckle minus the least u_r of the nodes *under* it. Seen from the origin, the
+  buckle's inner surface covers a *footprint*: a range of polar angles, and a range of azimuths
+  about its middle (all of them for an encircling band; the azimuths of its nodes, about the
+  direction of their summed horizontal unit vectors). Under: the sclera's nodes in the footprint
+  (reference positions); around: the sclera beside it, more than one buckle width away across the
+  buckle and over the buckle's extent along it: in polar angle at the buckle's azimuths for a band
+  or a circumferential tire (a footprint longer in azimuth than in the meridian), in azimuth
+  within its polar range for a radial sponge (longer in the meridian; out to 90 degrees from its
+  middle, and taken ring by ring: the sponge's footprint spans some 47 degrees of polar angle,
+  over which the inflated globe's radius varies, so each node under it is compared with the sclera
+  beside it at its own polar angle). The largest depth is the deepest point of the indentation,
+  for any buckle; the mean beside it takes out what moves that part of the globe (its inflation by
+  the IOP, its elongation). Zero in the reference state and under any uniform expansion of the
+  globe. A globe that inflates unevenly reads a few hundredths of a mm without any indentation
+  (-0.02 to -0.07 mm for the buckled eye's sclera at 15 mmHg: the thin equator bulges most), far
   below the 0.5 to 1.5 mm of a buckle (docs/published_figures.md, section 4).
+* ``opposite_indentation_mm``, for a buckle over less than half of the azimuths (a segmental
+  tire, a radial sponge): the same measure, footprint and sclera beside it turned by 180 degrees
+  about the optic axis, diametrically opposite the buckle. A buckle indents the sclera under
+  itself only, so the change of this measure over an operation stays a small fraction of that
+  of ``buckle_height_mm``; the uneven inflation is in both. In a wedge model it reads the part
+  of the turned footprint that the model holds (for a tire centred on a cut plane, the other cut
+  plane's meridian: the middle of the turned footprint).
 
 With a detachment (the retina's outer surface "retina_outer" and the choroid's inner surface
 "choroid_inner", the two faces of the subretinal gap of eyeball_fenicsx/meshing/builders/eye.py):
@@ -66,6 +80,7 @@ pictures then draw (``EyePictures``, output/eye_pictures.py).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -107,6 +122,11 @@ def ocular_rigidity(injected: list[float], iop: list[float], low: float = 15.0, 
     if fitted.sum() < 2:
         raise ValueError(f"ocular rigidity: {fitted.sum()} state(s) between {low} and {high} mmHg, need two")
     return float(np.polyfit(injected[fitted], np.log(iop[fitted]), 1)[0])
+
+
+def _turn(angle):
+    """Angles (rad) brought to [-pi, pi]."""
+    return np.angle(np.exp(1j * np.asarray(angle)))
 
 
 def polar_angle(X: np.ndarray) -> np.ndarray:
@@ -175,18 +195,7 @@ class EyeMeasures(Observer):
         self.X = self.V.tabulate_dof_coordinates()[: self.owned]
         comm = solid.comm
         if self.buckle is not None:
-            buckle = polar_angle(self.X[self._surface_nodes(self.buckle)])
-            lo = comm.allreduce(buckle.min() if len(buckle) else np.inf, op=MPI.MIN)
-            hi = comm.allreduce(buckle.max() if len(buckle) else -np.inf, op=MPI.MAX)
-            self.sclera_nodes = self._surface_nodes(self.sclera)
-            polar = polar_angle(self.X[self.sclera_nodes])
-            self.under = (polar >= lo - 1e-9) & (polar <= hi + 1e-9)
-            self.around = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a buckle width away
-            under, around = comm.allreduce(np.array([self.under.sum(), self.around.sum()]), op=MPI.SUM)
-            if not under or not around:
-                raise SceneError(f"[eye]: {self.sclera!r} has {under} node(s) under the buckle {self.buckle!r} "
-                                 f"(polar angles {np.degrees(lo):.1f} to {np.degrees(hi):.1f} deg from the "
-                                 f"posterior pole) and {around} around it: is the buckle on that surface?")
+            self._setup_footprint(comm)
         if self.retina is not None:
             self.retina_nodes = self._surface_nodes(self.retina)
             self.choroid_nodes = self._surface_nodes(self.choroid)
@@ -216,13 +225,64 @@ class EyeMeasures(Observer):
         self.displacement.interpolate(self._u_expr)
         return self.X + self.displacement.x.array.reshape(-1, 3)[: self.owned]
 
+    def _setup_footprint(self, comm):
+        """The sclera's nodes under the buckle, around it and opposite it (module docstring)."""
+        buckle = self.X[self._surface_nodes(self.buckle)]
+        polar = polar_angle(buckle)
+        lo = comm.allreduce(polar.min() if len(polar) else np.inf, op=MPI.MIN)
+        hi = comm.allreduce(polar.max() if len(polar) else -np.inf, op=MPI.MAX)
+        horizontal = buckle[:, :2] / np.linalg.norm(buckle[:, :2], axis=1)[:, None]
+        summed = comm.allreduce(horizontal.sum(axis=0), op=MPI.SUM)
+        count = comm.allreduce(len(buckle), op=MPI.SUM)
+        middle = math.atan2(summed[1], summed[0])
+        half = comm.allreduce(np.abs(_turn(np.arctan2(buckle[:, 1], buckle[:, 0]) - middle)).max(initial=0.0),
+                              op=MPI.MAX)
+        if np.linalg.norm(summed) < 1e-6 * count:  # a whole ring
+            half = math.pi
+        self.sclera_nodes = self._surface_nodes(self.sclera)
+        X = self.X[self.sclera_nodes]
+        polar, azimuth = polar_angle(X), np.arctan2(X[:, 1], X[:, 0])
+        in_polar = (polar >= lo - 1e-9) & (polar <= hi + 1e-9)
+        along_meridian = 2 * half * math.sin(0.5 * (lo + hi)) < hi - lo  # a radial sponge
+
+        def footprint(at):
+            """The sclera's nodes under the footprint turned to the azimuth ``at``, and around it."""
+            away = np.abs(_turn(azimuth - at))
+            if along_meridian:  # beside it, a width away in azimuth, on its side of the eye
+                return in_polar & (away <= half + 1e-9), in_polar & (away > 3 * half) & (away < 0.5 * math.pi)
+            beside = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a width away in the meridian, at its azimuths
+            return in_polar & (away <= half + 1e-9), beside & (away <= half + 1e-9)
+
+        # the sclera beside a sponge is compared ring by ring (its footprint spans some 47 degrees of
+        # polar angle, over which the inflated globe's radius varies); beside a band or tire, as one
+        rings = np.round(polar, 6) if along_meridian else np.zeros(len(polar))
+        keys = np.unique(np.concatenate(comm.allgather(np.unique(rings))))
+        self.rings, self.num_rings = np.searchsorted(keys, rings), len(keys)
+        self.footprints = {"buckle_height_mm": footprint(middle)}
+        under, around = (comm.allreduce(int(m.sum()), op=MPI.SUM) for m in self.footprints["buckle_height_mm"])
+        if not under or not around:
+            raise SceneError(f"[eye]: {self.sclera!r} has {under} node(s) under the buckle {self.buckle!r} "
+                             f"(polar angles {np.degrees(lo):.1f} to {np.degrees(hi):.1f} deg from the "
+                             f"posterior pole) and {around} around it: is the buckle on that surface?")
+        if half < 0.5 * math.pi - 1e-9:
+            opposite = footprint(middle + math.pi)
+            if all(comm.allreduce(int(m.sum()), op=MPI.SUM) for m in opposite):  # not in a wedge that lacks it
+                self.footprints["opposite_indentation_mm"] = opposite
+
     def _buckle_height(self):
         X = self.X[self.sclera_nodes]
         radial = np.linalg.norm(self._positions()[self.sclera_nodes], axis=1) - np.linalg.norm(X, axis=1)
         comm = self.solid.comm
-        around = comm.allreduce(np.array([radial[self.around].sum(), self.around.sum()]), op=MPI.SUM)
-        deepest = comm.allreduce(radial[self.under].min() if self.under.any() else np.inf, op=MPI.MIN)
-        return {"buckle_height_mm": float(around[0] / around[1] - deepest)}
+        result = {}
+        for key, (under, around) in self.footprints.items():
+            sums = np.zeros((2, self.num_rings))
+            np.add.at(sums[0], self.rings[around], radial[around])
+            np.add.at(sums[1], self.rings[around], 1.0)
+            sums = comm.allreduce(sums, op=MPI.SUM)
+            beside = sums[0] / np.maximum(sums[1], 1.0)  # the mean u_r beside the buckle, per ring
+            depth = (beside[self.rings] - radial)[under & (sums[1][self.rings] > 0)]
+            result[key] = float(comm.allreduce(depth.max() if len(depth) else -np.inf, op=MPI.MAX))
+        return result
 
     def _detachment(self):
         x = self._positions()

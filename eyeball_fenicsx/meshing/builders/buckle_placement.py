@@ -22,6 +22,13 @@ from the posterior pole (z = -r cos theta, rho = r sin theta), and its azimuth p
 * With a segmental tire the band is not built unless asked (``band=True``); asked, it is the same
   ring all around, resting on the tire where the tire is and standing height + gap clear of the
   sclera elsewhere (tightening brings it down).
+* A radial sponge (``sponge``) is a segmental element laid along the meridian instead: a shell
+  zone of ``length`` along the meridian (on its inner surface), centred on the centre line, over
+  the azimuths ``azimuth_deg`` +- half its ``width`` (measured on its inner surface at the centre
+  line), ``height`` thick, with ``n_width`` x ``n_length`` x ``n_height`` elements. It rests on
+  the sclera alone (no band, no tire), in a whole eye (a wedge would mirror it).
+* A detachment given without its centre is centred under the buckle: on the centre line, and at
+  the azimuth of a segmental tire or a sponge.
 * The whole buckle must rest on the spherical sclera, between the optic nerve and the limbal blend
   of eye_meridian.py; behind the equator of an eye longer than 24 mm the sclera is outside the
   sphere R_o (eye_meridian.py), and the buckle must clear it there. In a wedge model a segmental
@@ -56,6 +63,10 @@ BAND_WIDTH, BAND_THICKNESS = 2.5, 0.6
 GAP = 0.02
 TIRE = {"width": 4.0, "height": 1.0, "arc_deg": 360.0, "azimuth_deg": 0.0}
 _TIRE_KEYS = ("width", "height", "arc_deg", "azimuth_deg", "n_width", "n_height")
+# A radial sponge: 5 mm wide, 2 mm high, 10 mm long (round figures of the size of a radial element laid
+# over a single break, a few mm wider than a 4 mm tire); its elements about the band's, at least 4 x 8 x 2.
+SPONGE = {"width": 5.0, "height": 2.0, "length": 10.0, "azimuth_deg": 0.0}
+_SPONGE_KEYS = ("width", "height", "length", "azimuth_deg", "n_width", "n_height", "n_length")
 
 
 @dataclasses.dataclass
@@ -63,13 +74,14 @@ class BuckleBody:
     """One body of the buckle: a spherical shell zone, revolved over ``azimuths``.
 
     Attributes:
-        name: "band" or "tire" (its volume group, and the prefix of its surfaces).
+        name: "band", "tire" or "sponge" (its volume group, and the prefix of its surfaces).
         inner_radius, outer_radius: radii of its inner and outer surfaces (mm).
         theta: polar angles (rad, from the posterior pole) of its back and front faces.
         azimuths: azimuths of its node planes (rad), increasing.
         closed: a whole ring (periodic in azimuth).
         end_names: surface names of its faces at the first and the last azimuth (open bodies).
         n_width, n_thick: elements along the meridian and through the thickness.
+        radial: laid along the meridian (a radial sponge): its sutures cross it in azimuth.
         arc_deg, azimuth_deg: its azimuthal extent over the whole eye (360 for a ring) and the
             azimuth of its middle.
     """
@@ -85,6 +97,7 @@ class BuckleBody:
     n_thick: int
     arc_deg: float = 360.0
     azimuth_deg: float = 0.0
+    radial: bool = False
 
     def volume(self) -> float:
         """Volume of the smooth shell zone (mm^3): (1/3)(r_out^3 - r_in^3)(cos theta_back - cos theta_front)
@@ -105,8 +118,9 @@ class BuckleLayout:
         limbus_arc: s_l, arc length of the limbus from the posterior pole on the sclera (mm).
         nerve_arc: arc length of the optic nerve's edge from the posterior pole (mm).
         centre_theta: theta_c (rad).
-        bodies: "tire" and/or "band" -> :class:`BuckleBody`, from the sclera outward.
-        sutured: the body that :func:`buckle_sutures.suture_points` ties ("tire" if there is one, else "band").
+        bodies: "tire" and/or "band", or "sponge" -> :class:`BuckleBody`, from the sclera outward.
+        sutured: the body that :func:`buckle_sutures.suture_points` ties (the sponge or the tire if there is
+            one, else "band").
         detachment: the detachment passed to the eye (its polar angle filled in), or None.
     """
 
@@ -164,10 +178,46 @@ def _check_tire(tire, sector_deg):
     return tire
 
 
+def _check_sponge(sponge, sector_deg, tire, band):
+    if not isinstance(sponge, dict) or set(sponge) - set(_SPONGE_KEYS):
+        raise SceneError(f"buckled_eye: sponge must be None or a table with keys among {', '.join(_SPONGE_KEYS)}, "
+                         f"got {sponge!r}")
+    sponge = {**SPONGE, **sponge}
+    for key in ("width", "height", "length"):
+        check("buckled_eye", f"sponge {key}", sponge[key], "positive number")
+    if not is_number(sponge["azimuth_deg"]):
+        raise SceneError(f"buckled_eye: sponge azimuth_deg must be a number, got {sponge['azimuth_deg']!r}")
+    for key in ("n_width", "n_height", "n_length"):
+        if key in sponge:
+            check("buckled_eye", f"sponge {key}", sponge[key], "positive integer")
+    if sector_deg < 360.0:
+        raise SceneError(f"buckled_eye: a radial sponge needs the whole eye (sector_deg = 360), got sector_deg "
+                         f"{sector_deg:g}: a wedge would mirror it")
+    if tire is not None or band:
+        raise SceneError("buckled_eye: a radial sponge rests on the sclera alone: give no tire and no band = true")
+    return sponge
+
+
+def _sponge(sponge, inner, theta_c, element):
+    """The radial sponge, its inner surface of radius ``inner``; ``element`` the band's element size."""
+    half_length = sponge["length"] / (2 * inner)
+    half_width = sponge["width"] / (2 * inner * math.sin(theta_c))
+    if half_width >= 0.25 * math.pi:
+        raise SceneError(f"buckled_eye: the sponge's width {sponge['width']} mm spans half the eye's azimuths or more")
+    n_width = int(sponge.get("n_width", max(4, round(sponge["width"] / element))))
+    n_length = int(sponge.get("n_length", max(8, round(sponge["length"] / element))))
+    n_height = int(sponge.get("n_height", max(2, round(sponge["height"] / element))))
+    middle = math.radians(sponge["azimuth_deg"])
+    azimuths = np.linspace(middle - half_width, middle + half_width, n_width + 1)
+    return BuckleBody("sponge", inner, inner + sponge["height"], (theta_c - half_length, theta_c + half_length),
+                      azimuths, False, ("sponge_side_0", "sponge_side_1"), n_length, n_height,
+                      math.degrees(2 * half_width), float(sponge["azimuth_deg"]), radial=True)
+
+
 def buckle_layout(band_width: float = BAND_WIDTH, band_thickness: float = BAND_THICKNESS,
                   band_position: float = BAND_POSITION, tire: dict | None = None, gap: float = GAP,
                   n_band_thick: int = 2, n_band_width: int = 4, band: bool | None = None,
-                  **eye_parameters) -> BuckleLayout:
+                  sponge: dict | None = None, **eye_parameters) -> BuckleLayout:
     """Where the buckle's bodies are, without meshing (see :func:`build_buckled_eye` for the parameters).
 
     Returns:
@@ -185,19 +235,23 @@ def buckle_layout(band_width: float = BAND_WIDTH, band_thickness: float = BAND_T
         raise SceneError(f"buckled_eye: band must be true, false or omitted, got {band!r}")
     p, m = _eye_parameters(eye_parameters)
     sector, n_circ = p["sector_deg"], p["n_circ"]
+    if sponge is not None:
+        sponge = _check_sponge(sponge, sector, tire, band)
     if tire is not None:
         tire = _check_tire(tire, sector)
-    segmental = tire is not None and tire["arc_deg"] < 360.0
+    segmental = sponge is not None or tire is not None and tire["arc_deg"] < 360.0
     if band is None:
         band = not segmental
-    if not band and tire is None:
-        raise SceneError("buckled_eye: without the band there must be a tire")
+    if not band and tire is None and sponge is None:
+        raise SceneError("buckled_eye: without the band there must be a tire or a sponge")
     Ro, theta_c = m.Ro, (m.s_l - band_position) / m.Ro
     grid = node_azimuths(n_circ, sector)
     whole = sector >= 360.0
     ring_ends = () if whole else ("cut_0", "cut_1")
     bodies = {}
     radius = Ro
+    if sponge is not None:
+        bodies["sponge"] = _sponge(sponge, radius + gap, theta_c, band_width / n_band_width)
     if tire is not None:
         n_width = tire.get("n_width", max(n_band_width, round(tire["width"] / (band_width / n_band_width))))
         n_thick = tire.get("n_height", max(n_band_thick, round(tire["height"] / (band_thickness / n_band_thick))))
@@ -212,11 +266,19 @@ def buckle_layout(band_width: float = BAND_WIDTH, band_thickness: float = BAND_T
         bodies["band"] = BuckleBody("band", inner, inner + band_thickness, (theta_c - half, theta_c + half),
                                     grid, whole, ring_ends, n_band_width, n_band_thick)
     _check_fit(bodies, m, band_position)
-    detachment = p.pop("detachment")
-    if isinstance(detachment, dict) and "polar_deg" not in detachment:
-        detachment = {**detachment, "polar_deg": math.degrees(theta_c)}  # under the buckle
+    sutured = next(name for name in ("sponge", "tire", "band") if name in bodies)
     return BuckleLayout(eye=p, globe_radius=Ro, limbus_arc=m.s_l, nerve_arc=m.s_nerve, centre_theta=theta_c,
-                        bodies=bodies, sutured="tire" if tire is not None else "band", detachment=detachment)
+                        bodies=bodies, sutured=sutured, detachment=_under_buckle(p.pop("detachment"), bodies, theta_c))
+
+
+def _under_buckle(detachment, bodies, theta_c):
+    """A detachment given without its centre, centred under the buckle: on its centre line, and at the
+    azimuth of a segmental body (that of a given ``azimuth_deg`` kept)."""
+    if not isinstance(detachment, dict) or "polar_deg" in detachment:
+        return detachment
+    segmental = [body for body in bodies.values() if body.arc_deg < 360.0]
+    azimuth = {"azimuth_deg": segmental[0].azimuth_deg} if segmental else {}
+    return {**azimuth, **detachment, "polar_deg": math.degrees(theta_c)}
 
 
 def _tire(tire, inner, theta_c, n_width, n_thick, n_circ, sector, grid, ring_ends):

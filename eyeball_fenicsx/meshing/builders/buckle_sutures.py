@@ -11,6 +11,15 @@ edge of the widest body: mattress sutures are placed 1 mm beyond each edge of th
 that the indent occurs when the buckle is tightened" (Cybersight/Orbis, "Simulated surgery:
 placing the sutures for a scleral buckle": 9 mm apart for a 7 mm buckle).
 
+A radial sponge (laid along the meridian) is tied across instead: at each of ``count`` polar
+angles along its length, two sutures ("side_0" and "side_1", at its smaller and larger azimuth)
+from bites on the sclera ``suture_width`` / 2 to either side of its middle azimuth (measured along
+the sclera's circle of latitude) to the nodes of its top edges there.
+
+Each suture position is moved to the nearest node of the sutured body; a position halfway between
+two nodes goes to the one nearer the body's middle, so that sutures spread symmetrically over a
+body stay symmetric (round-off does not choose).
+
 In a wedge model a suture on a cut plane is kept with ``share`` 1/2 (its mirror image holds the
 other half): dropping it can leave the buckle with a single suture azimuth, whose two strings meet
 the buckle in one meridian and leave it free to slide along the sclera before contact holds it (a
@@ -37,19 +46,20 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     Args:
         parameters: the keyword arguments of :func:`buckled_eye.build_buckled_eye` (a dict; missing
             ones take their defaults).
-        count: number of suture azimuths over the whole eye: 360 (k + 1/2) / count degrees for a
+        count: number of suture positions (along a radial sponge: see the module docstring); of
+            suture azimuths over the whole eye: 360 (k + 1/2) / count degrees for a
             ring (45, 135, 225, 315 for 4: one in each oblique quadrant, between the rectus
             muscles), spread the same way over the arc of a segmental tire. In a wedge model
             those on a cut plane are kept at half share, those in the mirror image dropped.
         suture_width: distance between the two bites of a suture, measured along the sclera's
             meridian (default: the widest buckle body's footprint plus ``SUTURE_MARGIN`` on each
             side); it must exceed the widest body's footprint.
-        azimuth_deg: explicit azimuths (degrees) instead of ``count``.
+        azimuth_deg: explicit azimuths (degrees) instead of ``count`` (not for a radial sponge).
 
-    Each azimuth is moved to the nearest node azimuth of the sutured body (azimuths that meet there
-    give one suture pair), so that the buckle point is a node of its top edge; the sclera bite point
-    is on the sclera's smooth outer surface (the sphere of radius R_o; the Suture feature takes the
-    nearest node of "sclera_outer").
+    Each azimuth is moved to the nearest node azimuth of the sutured body, a tie to the one nearer
+    the body's middle (azimuths that meet there give one suture pair), so that the buckle point is
+    a node of its top edge; the sclera bite point is on the sclera's smooth outer surface (the
+    sphere of radius R_o; the Suture feature takes the nearest node of "sclera_outer").
 
     Returns:
         A list of dicts, two per azimuth ("back" then "front"): {"name": "suture_<azimuth>_<side>",
@@ -60,6 +70,11 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     """
     layout = buckle_layout(**(parameters or {}))
     body = layout.bodies[layout.sutured]
+    if body.radial:
+        if azimuth_deg is not None:
+            raise SceneError("buckled_eye: a radial sponge's sutures cross it along its length: give their count, "
+                             "not azimuths")
+        return _across_sponge(layout, body, count, suture_width)
     half = _half_width(layout, suture_width)
     sector = math.radians(layout.eye["sector_deg"])
     wedge = sector < 2 * np.pi
@@ -77,6 +92,46 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
                             "share": share, "sclera": tuple(sclera.tolist()), "buckle": tuple(buckle.tolist()),
                             "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer"})
     return sutures
+
+
+def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width):
+    """The sutures of a radial sponge: ``count`` pairs across it, spread along its length."""
+    check("buckled_eye", "count", count, "positive integer")
+    Ro = layout.globe_radius
+    width = Ro * (body.azimuths[-1] - body.azimuths[0]) * math.sin(layout.centre_theta)
+    if suture_width is None:
+        suture_width = width + 2 * SUTURE_MARGIN
+    check("buckled_eye", "suture_width", suture_width, "positive number")
+    if not suture_width > width:
+        raise SceneError(f"buckled_eye: suture_width {suture_width} must exceed the sponge's width {width:.3f} mm "
+                         "on the sclera")
+    middle = math.radians(body.azimuth_deg)
+    polar = np.linspace(body.theta[0], body.theta[1], body.n_width + 1)
+    wanted = body.theta[0] + (body.theta[1] - body.theta[0]) * (np.arange(count) + 0.5) / count
+    sutures = []
+    for theta in sorted({_nearest(polar, t, 0.5 * sum(body.theta)) for t in wanted}):
+        half = suture_width / 2 / (Ro * math.sin(theta))
+        for side, sign, edge in zip(("side_0", "side_1"), (-1, 1), (body.azimuths[0], body.azimuths[-1])):
+            bite = middle + sign * half
+            sclera = Ro * np.array([math.sin(theta) * math.cos(bite), math.sin(theta) * math.sin(bite),
+                                    -math.cos(theta)])
+            buckle = body.outer_radius * np.array([math.sin(theta) * math.cos(edge), math.sin(theta) * math.sin(edge),
+                                                   -math.cos(theta)])
+            sutures.append({"name": f"suture_{math.degrees(theta):.4g}_{side}", "azimuth_deg": body.azimuth_deg,
+                            "polar_deg": math.degrees(theta), "side": side, "share": 1.0,
+                            "sclera": tuple(sclera.tolist()), "buckle": tuple(buckle.tolist()),
+                            "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer"})
+    return sutures
+
+
+def _nearest(nodes: np.ndarray, value: float, middle: float, period: float | None = None) -> float:
+    """The node nearest ``value``; of two as near (to 1e-9), the one nearer ``middle`` (angles modulo
+    ``period`` if given)."""
+    def distance(a, b):
+        d = np.asarray(a) - b
+        return np.abs(d if period is None else np.angle(np.exp(2j * np.pi * d / period)) * period / (2 * np.pi))
+    key = np.round(distance(nodes, value), 9)
+    return float(nodes[np.lexsort((distance(nodes, middle), key))[0]])
 
 
 def _half_width(layout: BuckleLayout, suture_width):
@@ -114,7 +169,7 @@ def _azimuths(layout: BuckleLayout, body: BuckleBody, count, azimuth_deg):
         distance = np.abs(np.angle(np.exp(1j * (body.azimuths - phi))))
         if distance.min() > step:
             raise SceneError(f"buckled_eye: no suture at azimuth {math.degrees(phi):.1f} deg, outside the tire")
-        phi = float(body.azimuths[np.argmin(distance)]) % (2 * np.pi)
+        phi = _nearest(body.azimuths, phi, math.radians(body.azimuth_deg), 2 * np.pi) % (2 * np.pi)
         if all(abs(phi - other) > 1e-9 for other in snapped):
             snapped.append(phi)
     return snapped

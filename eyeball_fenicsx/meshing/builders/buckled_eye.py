@@ -14,7 +14,10 @@ centred under the buckle.
 Physical groups: the eye's volumes and surfaces (eyeball_fenicsx/meshing/builders/eye.py), then the volumes "tire"
 and "band" and their surfaces "tire_inner", "tire_outer", "tire_front" (toward the cornea),
 "tire_back" (toward the posterior pole), "tire_end_0" and "tire_end_1" (the ends of a segmental
-tire, at its smaller and larger azimuth), "band_inner", "band_outer", "band_front", "band_back".
+tire, at its smaller and larger azimuth), "band_inner", "band_outer", "band_front", "band_back"; a
+radial sponge: "sponge", with "sponge_inner", "sponge_outer", "sponge_front" and "sponge_back" (its
+ends along the meridian), "sponge_side_0" and "sponge_side_1" (its long sides, at its smaller and
+larger azimuth).
 In a wedge model (``sector_deg`` 180 or 90) the buckle's faces on the cut planes join the eye's
 "cut_0" and "cut_1".
 
@@ -133,7 +136,7 @@ def buckled_eye_geometry(**parameters) -> tuple[EyeMesh, BuckleLayout]:
 def build_buckled_eye(band_width: float = BAND_WIDTH, band_thickness: float = BAND_THICKNESS,
                       band_position: float = BAND_POSITION, tire: dict | None = None, gap: float = GAP,
                       n_band_thick: int = 2, n_band_width: int = 4, band: bool | None = None,
-                      **eye_parameters) -> dict:
+                      sponge: dict | None = None, **eye_parameters) -> dict:
     """Add the gmsh model "buckled_eye": the eye of eye.py and a scleral buckle (module docstring).
 
     Call on the rank that owns gmsh, with gmsh initialized.
@@ -149,7 +152,11 @@ def build_buckled_eye(band_width: float = BAND_WIDTH, band_thickness: float = BA
             band's element size)}; it is centred on the band's centre line.
         gap: initial clearance between the buckle and the sclera, and between band and tire, 0.02 mm.
         n_band_thick, n_band_width: the band's elements through its thickness and across its width.
-        band: build the band (default: yes, but over a segmental tire).
+        band: build the band (default: yes, but over a segmental tire or with a sponge).
+        sponge: None, or a radial sponge laid along the meridian, alone on the sclera of a whole eye:
+            {"width": its azimuthal width at the centre line (5.0 mm), "height" (2.0 mm), "length":
+            along the meridian, centred on the centre line (10.0 mm), "azimuth_deg" of its middle (0),
+            "n_width", "n_height", "n_length": its elements}.
         **eye_parameters: the eye's parameters (:func:`eye.build_eye`), passed through; a
             ``detachment`` without "polar_deg" is centred under the buckle.
 
