@@ -4,9 +4,11 @@ parameters and mesh files; then (issue 19) the contact settings, the retinal bre
 tissue sets, the detachment, the tire's position, the solver and the planning sweep's inputs; then
 (issue 18) the planning sweep's grid and ranges.
 
-Each case is run as a user runs it, ``python3 -m eyeball_fenicsx run scene.toml --out DIR`` (or
-``sweep scene.toml --parameter ... --values ... --out DIR``) in a child process (a fresh MPI
-singleton, as in test_scenes.test_console_script_in_a_child_process), and must exit 2 with one
+Each case is run as a user runs it, the command line ``run scene.toml --out DIR`` (or ``sweep
+scene.toml --parameter ... --values ... --out DIR``), in a child process (a fresh MPI singleton,
+as in test_scenes.test_console_script_in_a_child_process) that runs a rank's share of the cases
+one after the other (tests/catalogue_child.py; ``python3 -m eyeball_fenicsx`` is what
+test_scenes runs), and must exit 2 with one
 line ``error: ...`` on stderr that names what is wrong and where, without a traceback, having
 written nothing to DIR but possibly a summary.json with ``"ok": false``.
 
@@ -398,38 +400,53 @@ CASES = {
 }
 
 
-def run_case(case, folder):
-    """Write a case's files into ``folder`` and run the command line on it in a child process."""
+def write_case(case, folder):
+    """Write a case's files and its command line (argv.json) into ``folder``."""
     text, _, *more = CASES[case]
     files, command = more[0] if more else {}, more[1] if len(more) > 1 else ["run"]
     os.makedirs(folder)
     for name, content in {"scene.toml": text, **files}.items():
         write_text(os.path.join(folder, name), content)
+    argv = [command[0], os.path.join(folder, "scene.toml"), *command[1:], "--out", os.path.join(folder, "out")]
+    write_text(os.path.join(folder, "argv.json"), json.dumps(argv))
+
+
+def read_outcome(folder):
+    """What the command line did: exit code, stderr, the files in its output folder."""
+    with open(os.path.join(folder, "outcome.json")) as f:
+        outcome = json.load(f)
     out = os.path.join(folder, "out")
-    # a fresh MPI singleton: none of the OMPI_* / PMIX_* variables of the mpirun that started us
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
-    child = subprocess.run([sys.executable, "-m", "eyeball_fenicsx", command[0], os.path.join(folder, "scene.toml"),
-                            *command[1:], "--out", out], env=env, capture_output=True, text=True, timeout=120)
     written = sorted(os.listdir(out)) if os.path.isdir(out) else []
     ok = None
     if "summary.json" in written:
         with open(os.path.join(out, "summary.json")) as f:
             ok = json.load(f).get("ok")
-    return {"code": child.returncode, "stderr": child.stderr, "written": written, "summary_ok": ok}
+    return {**outcome, "written": written, "summary_ok": ok}
 
 
 @pytest.fixture(scope="module")
 def outcomes(request, tmp_path_factory):
-    """The outcome of every case selected (``-k``), on every rank; each rank runs its share."""
+    """The outcome of every case selected (``-k``), on every rank; each rank runs its share in one
+    child process (tests/catalogue_child.py)."""
     selected = sorted({item.callspec.params["case"] for item in request.session.items
                        if item.module is sys.modules[__name__] and hasattr(item, "callspec")})
     base = tmp_path_factory.mktemp(f"catalogue_rank{COMM.rank}")
     mine = {}
-    for case in selected[COMM.rank::COMM.size]:
-        try:
-            mine[case] = run_case(case, os.path.join(base, case))
-        except Exception as error:  # reported by the case's test; no rank is left waiting
-            mine[case] = {"failure": repr(error)}
+    try:
+        folders = {case: os.path.join(base, case) for case in selected[COMM.rank::COMM.size]}
+        for case, folder in folders.items():
+            write_case(case, folder)
+        # a fresh MPI singleton: none of the OMPI_* / PMIX_* variables of the mpirun that started us
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
+        child = subprocess.run([sys.executable, os.path.join(os.path.dirname(__file__), "catalogue_child.py"),
+                                *folders.values()], env=env, capture_output=True, text=True, timeout=600)
+        for case, folder in folders.items():
+            if os.path.exists(os.path.join(folder, "outcome.json")):
+                mine[case] = read_outcome(folder)
+            else:
+                mine[case] = {"failure": f"the child ended (exit {child.returncode}) before this case: {child.stderr}"}
+    except Exception as error:  # reported by the cases' tests; no rank is left waiting
+        mine = {case: {"failure": repr(error)} for case in selected[COMM.rank::COMM.size]}
     return {case: outcome for share in COMM.allgather(mine) for case, outcome in share.items()}
 
 
