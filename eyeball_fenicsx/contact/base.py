@@ -19,7 +19,12 @@ read as the penetration it would remove (|Delta lambda_i| / alpha_i), exceeds AU
 of the thickness of the element under it: the weighted gaps then vanish, to that depth,
 wherever the surfaces press, whatever the penalty. One constraint per slave node, as in
 mortar methods: one per Gauss point would be more constraints than the slave surface has
-nodes, and the pressure modes that move no node would never converge. Increments inside a
+nodes, and the pressure modes that move no node would never converge. A pass that removes
+less than half of the penetration left (PENALTY_GROWTH_TEST: a structure behind the surfaces
+far stiffer than the penalty, such as sutures pulling a buckle in) multiplies the penalty by
+PENALTY_GROWTH for the rest of the increment, up to MAX_PENALTY_GROWTH; a pass whose solve
+fails is abandoned (the converged state before it stands, as at the cap of passes), never
+turned into a cut-back of the increment. Increments inside a
 step take one update each, without solving again (it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
@@ -53,10 +58,13 @@ from .policy import (
     AITKEN_BOUNDS,
     AUGMENT_DEPTH,
     MAX_AUGMENTATIONS,
+    MAX_PENALTY_GROWTH,
     NEWTON_OPTIONS,
     ONSET_DEPTH,
     ONSET_ITERATIONS,
     OPEN_RANGE,
+    PENALTY_GROWTH,
+    PENALTY_GROWTH_TEST,
 )
 from .surface import check_penalty
 
@@ -98,6 +106,8 @@ class ContactFeature(Feature):
         self.active = False
         self.final_increment, self._passes = True, 0
         self._relaxation, self._last_update, self._pending = 1.0, None, None
+        self._growth, self._last_unsettled = 1.0, None  # the penalty's growth in this increment (augment)
+        self._before = None  # the multipliers and penalty growth before the last augmentation (abandon)
         self._selection = None  # (the positions it was made at, the Selection)
         # wall seconds, for benchmarks; "gather" (the master surface's displacements) includes
         # waiting for the slowest rank
@@ -180,9 +190,35 @@ class ContactFeature(Feature):
         """Whether the coming increment ends its step (the augmentations then go to the end);
         the last increment's update of the multipliers is taken now."""
         self.final_increment, self._passes = final, 0
-        self._relaxation, self._last_update = 1.0, None
+        self._relaxation, self._last_update, self._last_unsettled, self._before = 1.0, None, None, None
+        if self._growth != 1.0:  # each increment starts from the penalty of the elements
+            self._grow_penalty(1.0 / self._growth)
         if self._pending is not None:
             self.node_multiplier, self._pending, self._selection = self._pending, None, None
+
+    def abandon_augmentation(self) -> None:
+        """The solve after the last augmentation failed: back to the multipliers and penalty the
+        converged state had, and no more augmentations in this increment."""
+        if self._before is not None:
+            self.node_multiplier = self._before[0]
+            self._grow_penalty(self._before[1] / self._growth)
+            self._before, self._last_update = None, None
+        self._passes = MAX_AUGMENTATIONS
+
+    def _uzawa_update(self, point, area, gap):
+        """Each slave node's Uzawa change of its multiplier, from its weighted gap."""
+        alpha = self._nodal_sums(point, self.weight[point] * self.alpha[point])
+        seen = area > 0
+        target = np.zeros_like(self.node_multiplier)
+        target[seen] = np.maximum(self.node_multiplier[seen] - alpha[seen] * gap[seen] / area[seen] ** 2, 0.0)
+        return target - self.node_multiplier
+
+    def _grow_penalty(self, factor):
+        """Multiply the penalty by ``factor`` (the settled change with it); Aitken starts again."""
+        self.alpha = self.alpha * factor
+        self._settled_change = self._settled_change * factor
+        self._growth *= factor
+        self._relaxation, self._last_update, self._selection = 1.0, None, None
 
     def _point_multipliers(self):
         return np.einsum("na,na->n", self.point_N, self.node_multiplier[self.point_nodes])
@@ -208,17 +244,26 @@ class ContactFeature(Feature):
         w = self.weight[point]
         area = self._nodal_sums(point, w)
         gap = self._nodal_sums(point, w * g)
-        alpha = self._nodal_sums(point, w * self.alpha[point])
         seen = area > 0
-        target = np.zeros_like(self.node_multiplier)
-        target[seen] = np.maximum(self.node_multiplier[seen] - alpha[seen] * gap[seen] / area[seen] ** 2, 0.0)
         owned = seen & (np.arange(len(seen)) < self._num_owned)
-        update = target - self.node_multiplier
-        unsettled = np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]
-        settled = self.solid.comm.allreduce(unsettled.max(initial=0.0), op=MPI.MAX) <= 1.0
-        if settled or self._passes >= MAX_AUGMENTATIONS:
+        update = self._uzawa_update(point, area, gap)
+        # |update| / settled change: the penetration it removes, in units of the settled depth
+        # (the penalty cancels), so the rule below may change the penalty between two passes
+        unsettled = self.solid.comm.allreduce(
+            (np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]).max(initial=0.0), op=MPI.MAX)
+        if unsettled <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
             self._last_update = None
             return True
+        self._before = (self.node_multiplier, self._growth)
+        # the penetration shrinks slowly: the structure behind the surfaces (a suture pulling a
+        # buckle in) is far stiffer than the penalty, so Uzawa contracts as k / (k + alpha);
+        # the penalty grows, as in the augmented Lagrangian methods of Conn, Gould and Toint
+        # (SIAM J. Numer. Anal. 28 (1991) 545) and Bertsekas (1982, sec. 2.2)
+        if self._last_unsettled is not None and unsettled > PENALTY_GROWTH_TEST * self._last_unsettled \
+                and self._growth * PENALTY_GROWTH <= MAX_PENALTY_GROWTH:
+            self._grow_penalty(PENALTY_GROWTH)
+            update = self._uzawa_update(point, area, gap)
+        self._last_unsettled = unsettled
         # Aitken's relaxation of the increments (Irons and Tuck 1969; Kuettler and Wall,
         # Comput. Mech. 43 (2008) 61-72): omega <- -omega r_(k-1) . (r_k - r_(k-1)) / |r_k - r_(k-1)|^2
         if self._last_update is not None:
@@ -269,15 +314,15 @@ class ContactFeature(Feature):
     # -- a checkpoint (output/checkpoint.py) ----------------------------------------------
     def checkpoint_state(self) -> dict:
         """The nodal multipliers in force and the update the next increment takes (None: none), as
-        dof arrays, and the augmentations so far."""
+        dof arrays, the augmentations so far and the penalty's growth in the last increment."""
         return {"node_multiplier": self.node_multiplier, "pending": self._pending,
-                "augmentations": int(self.augmentations)}
+                "augmentations": int(self.augmentations), "penalty_growth": self._growth}
 
     def restore_state(self, state: dict) -> None:
         self.node_multiplier = np.array(state["node_multiplier"])
         self._pending = None if state["pending"] is None else np.array(state["pending"])
         self.augmentations = state["augmentations"]
-        self._selection = None
+        self._grow_penalty(state["penalty_growth"] / self._growth)
 
     # -- output --------------------------------------------------------------------------
     def point_pressures(self) -> tuple[np.ndarray, np.ndarray]:
@@ -307,7 +352,8 @@ class ContactFeature(Feature):
         return {"force": force.tolist(), "max_penetration": max(deepest[0], 0.0),
                 "where": deepest[1] if deepest[0] > 0 else None,
                 "active_points": int(comm.allreduce(len(state["point"]), op=MPI.SUM)),
-                "active_nodes": self._loaded_nodes(state["point"]), "penalty": float(self.mean_penalty),
+                "active_nodes": self._loaded_nodes(state["point"]),
+                "penalty": float(self.mean_penalty * self._growth),
                 "augmentations": int(self.augmentations)}
 
     def _setup_common(self, solid):

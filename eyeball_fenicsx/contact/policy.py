@@ -16,6 +16,9 @@ ONSET_DEPTH = 0.05  # a point closing in one Newton step may go this deep (fract
 ONSET_ITERATIONS = 8  # regula falsi steps to find where along a Newton step a gap reaches that depth
 AUGMENT_DEPTH = 1e-4  # augmented: no multiplier update moves its node more than this (fraction of its element's depth)
 MAX_AUGMENTATIONS = 30  # Newton solves of one increment's end at most, for the augmentations
+PENALTY_GROWTH_TEST = 0.5  # an augmentation that removes less than half of the penetration left ...
+PENALTY_GROWTH = 2.0  # ... multiplies the penalty by this for the next passes of the increment,
+MAX_PENALTY_GROWTH = 16.0  # up to this many times the elements' penalty
 AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
 # Newton's options (``system/newton.py``) with contact: the onset limit already shortens the
 # Newton step, and a backtracking line search would take a fraction of that again (a shortened

@@ -107,6 +107,10 @@ class ActiveSet(Protocol):
         """Collective: after Newton converged an increment, update what the converged state
         decides; False if Newton must solve again."""
 
+    def abandon_augmentation(self) -> None:
+        """Collective: the solve after ``augment`` failed; take back its update (the converged
+        state before it stands) and augment no more in this increment."""
+
 
 def check_whole_role(feature: object, role: type) -> None:
     """Raise TypeError if ``feature`` defines some of ``role``'s methods but lacks one of its

@@ -250,6 +250,11 @@ class Problem:
         """After Newton converged: True if no active set needs another solve (collective)."""
         return all([f.augment() for f in self.active_sets])
 
+    def abandon_augmentation(self) -> None:
+        """The solve after the last augmentation failed: the active sets take it back (collective)."""
+        for f in self.active_sets:
+            f.abandon_augmentation()
+
     # -- SNES callbacks ------------------------------------------------------------------
     def assemble_residual_unconstrained(self) -> PETSc.Vec:
         """The residual vector of the UFL forms, ghosts accumulated, no BC treatment."""

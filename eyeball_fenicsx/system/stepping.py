@@ -154,9 +154,18 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     newton.update_pattern()
     problem.set_increment(load_factor >= 1.0 - 1e-12)
     converged, its, norm, reason = newton.solve(x)
+    settled = x.duplicate()
     while converged and not problem.augment():
+        x.copy(settled)
+        before = norm, reason
         converged, more, norm, reason = newton.solve(x, chord_start=True)
         its += more
+        if not converged:  # the augmentation is abandoned: the converged state before it stands
+            settled.copy(x)
+            problem.abandon_augmentation()
+            problem.vector_to_state(x)
+            converged, (norm, reason) = True, before
+    settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
     return converged, Increment(load_factor, its, norm, wall, factorized), reason
 
