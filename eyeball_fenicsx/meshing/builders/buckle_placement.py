@@ -153,19 +153,25 @@ def _arc_azimuths(n_circ, start, stop):
     return np.concatenate([[start], between, [stop]])
 
 
+def _checked_body(name, given, defaults, keys, sizes):
+    """A buckle body's table (a tire, a sponge) over its defaults: known keys, positive sizes, a
+    numeric azimuth and positive element counts (the keys starting with "n_")."""
+    if not isinstance(given, dict) or set(given) - set(keys):
+        raise SceneError(f"buckled_eye: {name} must be None or a table with keys among {', '.join(keys)}, "
+                         f"got {given!r}")
+    body = {**defaults, **given}
+    for key in sizes:
+        check("buckled_eye", f"{name} {key}", body[key], "positive number")
+    if not is_number(body["azimuth_deg"]):
+        raise SceneError(f"buckled_eye: {name} azimuth_deg must be a number, got {body['azimuth_deg']!r}")
+    for key in keys:
+        if key.startswith("n_") and key in body:
+            check("buckled_eye", f"{name} {key}", body[key], "positive integer")
+    return body
+
+
 def _check_tire(tire, sector_deg):
-    if not isinstance(tire, dict) or set(tire) - set(_TIRE_KEYS):
-        raise SceneError(f"buckled_eye: tire must be None or a table with keys among {', '.join(_TIRE_KEYS)}, "
-                         f"got {tire!r}")
-    tire = {**TIRE, **tire}
-    for key in ("width", "height", "arc_deg"):
-        check("buckled_eye", f"tire {key}", tire[key], "positive number")
-    value = tire["azimuth_deg"]
-    if not is_number(value):
-        raise SceneError(f"buckled_eye: tire azimuth_deg must be a number, got {value!r}")
-    for key in ("n_width", "n_height"):
-        if key in tire:
-            check("buckled_eye", f"tire {key}", tire[key], "positive integer")
+    tire = _checked_body("tire", tire, TIRE, _TIRE_KEYS, ("width", "height", "arc_deg"))
     if tire["arc_deg"] > 360.0:
         raise SceneError(f"buckled_eye: tire arc_deg must be at most 360, got {tire['arc_deg']}")
     if tire["arc_deg"] < 360.0 and sector_deg < 360.0:
@@ -179,17 +185,7 @@ def _check_tire(tire, sector_deg):
 
 
 def _check_sponge(sponge, sector_deg, tire, band):
-    if not isinstance(sponge, dict) or set(sponge) - set(_SPONGE_KEYS):
-        raise SceneError(f"buckled_eye: sponge must be None or a table with keys among {', '.join(_SPONGE_KEYS)}, "
-                         f"got {sponge!r}")
-    sponge = {**SPONGE, **sponge}
-    for key in ("width", "height", "length"):
-        check("buckled_eye", f"sponge {key}", sponge[key], "positive number")
-    if not is_number(sponge["azimuth_deg"]):
-        raise SceneError(f"buckled_eye: sponge azimuth_deg must be a number, got {sponge['azimuth_deg']!r}")
-    for key in ("n_width", "n_height", "n_length"):
-        if key in sponge:
-            check("buckled_eye", f"sponge {key}", sponge[key], "positive integer")
+    sponge = _checked_body("sponge", sponge, SPONGE, _SPONGE_KEYS, ("width", "height", "length"))
     if sector_deg < 360.0:
         raise SceneError(f"buckled_eye: a radial sponge needs the whole eye (sector_deg = 360), got sector_deg "
                          f"{sector_deg:g}: a wedge would mirror it")
