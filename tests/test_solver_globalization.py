@@ -104,7 +104,7 @@ def test_newton_without_an_equilibrium_stops_as_stagnated(sphere_mesh):
             pytest.raises(ef.ConvergenceError, match="last try: stagnated"):
         scene.run()
     iterations = len(scene.newton.residual_norms) - 1
-    assert iterations <= STAGNATION_WINDOW + 2
+    assert iterations <= STAGNATION_WINDOW + 3  # the window, counted from the first iterate, and one or two more
 
 
 # ---------------------------------------------------------------------------------------------

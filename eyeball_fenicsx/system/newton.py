@@ -31,7 +31,9 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   against the imbalance Newton's first step gave it. Every block must have converged;
 * stagnation: a Newton solve whose residual, each block divided by its tolerance, has not
   reached a new minimum in ``STAGNATION_WINDOW`` iterations (a cycle, or steps that no longer
-  help) stops at once as "stagnated", and the increment is cut back; unless the whole
+  help) stops at once as "stagnated", and the increment is cut back. Minima are counted among
+  the Newton iterates, not the starting point: its residual is the increment's load alone, which
+  the first steps of a contact onset raise a hundredfold before they bring it down. Unless the whole
   residual has met PETSc's default test (its 2-norm at most ``snes_rtol`` times its first, or
   ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
   below when its terms are far larger than its imbalance, and the solve has converged;
@@ -242,9 +244,9 @@ class NewtonSolver:
     def _stagnated(self, tolerances):
         """No new minimum of the residual, each block in units of its tolerance, in the last
         STAGNATION_WINDOW iterations: a cycle of period up to that, or steps that no longer help."""
-        if len(self.block_norms) <= STAGNATION_WINDOW:
+        if len(self.block_norms) <= STAGNATION_WINDOW + 1:
             return False
-        scaled = np.max(np.array(self.block_norms) / tolerances, axis=1)
+        scaled = np.max(np.array(self.block_norms[1:]) / tolerances, axis=1)  # the iterates, not the start
         return scaled[-STAGNATION_WINDOW:].min() >= scaled[:-STAGNATION_WINDOW].min()
 
     def _symmetric(self, A):
