@@ -213,3 +213,18 @@ def test_myopic_eye_filled_to_15_mmHg(tmp_path):
     # The filled eye is the requested one lengthened by the filling, by a strain of the order of the
     # wall's hoop strain that the volume above implies (dV / 3V of the 7.4 mL cavity: 3.3 %).
     assert 28.0 < eye_measures["axial_length_mm"] < 28.0 * 1.05
+
+
+def test_refraction_change_is_gullstrands_eye_lengthened():
+    """The refraction rule's constants are Gullstrand's exact eye (Atchison & Smith 2000, table
+    A1): its power, 58.636 D, focuses at 24.387 mm behind the corneal apex. Lengthened by 1 mm
+    from there, the eye is a myope whose far point lies where the vergence n'/L' - P says, and
+    the slope is the textbook -2.5 to -3 D per mm; a 28 mm eye's is smaller, a 22 mm eye's larger."""
+    from eyeball_fenicsx.output.measures import SECOND_PRINCIPAL_POINT_MM, VITREOUS_INDEX, refraction_change
+
+    focus = 24.387
+    assert 1000 * VITREOUS_INDEX / (focus - SECOND_PRINCIPAL_POINT_MM) == pytest.approx(58.636, rel=1e-3)
+    assert refraction_change(focus, focus + 1.0) == pytest.approx(1336 / 23.785 - 58.636, rel=2e-3)
+    slopes = {length: refraction_change(length, length + 1e-3) / 1e-3 for length in (22.0, 24.0, 28.0)}
+    assert -3.0 < slopes[24.0] < -2.5
+    assert slopes[22.0] < slopes[24.0] < slopes[28.0] < 0

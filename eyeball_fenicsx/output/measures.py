@@ -7,9 +7,13 @@
   that step; before it (no pre-operative eye yet), from the unloaded mesh. The change from the
   mesh is always there too, ``axial_length_change_from_mesh_mm`` (the inflation included);
 * ``refraction_change_D`` (and ``refraction_change_from_mesh_D``): the refractive change of
-  that length change at -2.7 D per mm
-  (a 1 mm longer eye is about 2.7 D more myopic: Atchison & Smith, Optics of the Human
-  Eye, 2000, ch. 17; schematic-eye values range from -2.5 to -3 D/mm);
+  that length change, the eye's optics unchanged (axial ametropia): an eye of refracting power
+  P whose retina lies L' behind its second principal point sees sharply at the vergence
+  R = n'/L' - P, so a length change from L_0 to L_1 changes the refraction by
+  n' (1 / (L_1 - H') - 1 / (L_0 - H')), with n' = 1.336 (vitreous) and H' = 1.602 mm behind
+  the corneal apex (Gullstrand's exact schematic eye: Atchison & Smith, Optics of the Human
+  Eye, 2000, appendix 3). About -2.6 D per mm at 24 mm (1 mm longer: 2.5 to 3 D more myopic,
+  ch. 17 there), -3.3 at 22 mm and -1.9 at 28: a long eye's change reads less per mm;
 * ``iop_mmHg``: the vitreous pressure (1 MPa = 7500.62 mmHg);
 * ``max_mises_MPa``: the largest von Mises stress (element midpoints) per tissue.
 
@@ -102,7 +106,14 @@ if TYPE_CHECKING:
     from ..system.problem import Problem
 
 MMHG_PER_MPA = 7500.62
-DIOPTRES_PER_MM = -2.7
+VITREOUS_INDEX = 1.336  # n' of the reduced eye's image space
+SECOND_PRINCIPAL_POINT_MM = 1.602  # H' behind the corneal apex (Gullstrand's exact eye)
+
+
+def refraction_change(length_before: float, length_after: float) -> float:
+    """The refraction change (D) of an axial length change (mm) at fixed optics (module docstring)."""
+    return 1000.0 * VITREOUS_INDEX * (1.0 / (length_after - SECOND_PRINCIPAL_POINT_MM)
+                                      - 1.0 / (length_before - SECOND_PRINCIPAL_POINT_MM))
 # A retina more than this from the choroid is detached: a tenth of the 0.1 mm gaps of the
 # detachments we model (a retina in contact with the choroid has a gap <= 0: the penetration).
 DETACHED_GAP = 0.01
@@ -327,11 +338,11 @@ class EyeMeasures(Observer):
         length = float(np.linalg.norm(self.ends[0].position() - self.ends[1].position()))
         if self.step_index == self.preoperative_step:
             self.preoperative_length = length
-        from_mesh = length - self.initial_length
-        change = from_mesh if self.preoperative_length is None else length - self.preoperative_length
-        result = {"axial_length_mm": length, "axial_length_change_mm": change,
-                  "refraction_change_D": DIOPTRES_PER_MM * change, "axial_length_change_from_mesh_mm": from_mesh,
-                  "refraction_change_from_mesh_D": DIOPTRES_PER_MM * from_mesh}
+        before = self.initial_length if self.preoperative_length is None else self.preoperative_length
+        result = {"axial_length_mm": length, "axial_length_change_mm": length - before,
+                  "refraction_change_D": refraction_change(before, length),
+                  "axial_length_change_from_mesh_mm": length - self.initial_length,
+                  "refraction_change_from_mesh_D": refraction_change(self.initial_length, length)}
         if self.vitreous is not None:
             result["iop_mmHg"] = self.vitreous.report()["pressure"] * MMHG_PER_MPA
         self.mises.interpolate(self._mises_expr)
