@@ -32,8 +32,9 @@ a couple (x_h - x_a) x f, which nothing in the eye balances but the support: tie
 of a buckle of height H, that line has a part H along the radius and the couple of the slides
 at the two bites of a suture add up (a moment about the sclera's tangent, 2 H f, which tilts a
 whole eye held by its optic nerve); tied to the buckle's base, the line a-h lies in the
-sclera's tangent plane but for the buckle's clearance, so each couple is about the normal and
-those of a suture's two bites, mirror images, cancel.
+sclera's tangent plane but for the buckle's clearance and its indentation, so each couple is
+about the normal and those of a suture's two bites, mirror images, cancel (the README's "The
+whole eye" gives the couples measured on a radial sponge, 2 mm high).
 
 Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E about
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
