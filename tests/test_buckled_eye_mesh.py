@@ -279,17 +279,21 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
     sclera = _surface_nodes(data, "sclera_outer")
     outer = _surface_nodes(data, f"{body}_outer")
     sides = {side: _surface_nodes(data, f"{body}_{side}") for side in ("front", "back")}
+    inner = _surface_nodes(data, f"{body}_inner")
     for suture in sutures:
         assert suture["sclera_surface"] == "sclera_outer" and suture["buckle_surface"] == f"{body}_outer"
-        bite, knot = np.array(suture["sclera"]), np.array(suture["buckle"])
+        assert suture["hold_surface"] == f"{body}_inner"
+        bite, knot, hold = (np.array(suture[key]) for key in ("sclera", "buckle", "hold"))
         assert np.linalg.norm(bite) == pytest.approx(radius, abs=1e-9)  # on the sclera's outer surface
 
         def distances():
             return (cKDTree(sclera).query(bite)[0], cKDTree(outer).query(knot)[0],
-                    cKDTree(sides[suture["side"]]).query(knot)[0])
-        to_sclera, to_outer, to_side = _on_rank0(distances)
+                    cKDTree(sides[suture["side"]]).query(knot)[0], cKDTree(inner).query(hold)[0])
+        to_sclera, to_outer, to_side, to_inner = _on_rank0(distances)
         assert to_sclera < 0.45  # within half an element of a node of "sclera_outer"
         assert to_outer < 1e-9 and to_side < 1e-9  # a node of the top edge on the suture's side
+        # the loop holds the node of the base under it (seen from the sclera's centre)
+        assert to_inner < 1e-9 and hold / np.linalg.norm(hold) == pytest.approx(knot / np.linalg.norm(knot))
         # The bite is suture_width / 2 from the centre line along the meridian, outside the buckle.
         theta, phi = _polar(bite[None])
         arc = radius * (theta[0] - layout.centre_theta)

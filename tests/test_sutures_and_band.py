@@ -136,6 +136,31 @@ def test_tied_loop_resists_a_slide_across_its_string(block_mesh):
     pulled(ub)
     hessian = np.array([(pulled(ub - h * e) - pulled(ub + h * e)) / (2 * h) for e in unit]).T
     pulled(ub)
-    assert suture._block() == pytest.approx(hessian, rel=1e-5, abs=1e-7)
+    assert sum(suture._blocks()) == pytest.approx(hessian, rel=1e-5, abs=1e-7)
     # slid by 1e-3 along s (across the string, which lengthens by 1e-6 / 2 l_0 only): held back by k_s
     assert s @ pulled(1e-3 * s) == pytest.approx(-SLIDE_STIFFNESS * k * 1e-3, rel=1e-3)
+
+
+def test_tied_loop_holds_the_buckle_base_it_is_given(block_mesh):
+    """A bilateral suture whose loop holds another node h of the body of its second end (a
+    buckle's base under the string's end b: features/sutures.py): its potential is
+    k/2 (l - l_0)^2 + k_s/2 (s . (u_h - u_a))^2, so moving h alone along s meets k_s there and
+    leaves the string's force on b at zero; the body of b and h takes the hold's force, and the
+    first end the opposite (a pair: no net force). The hold's tangent block is k_s s s^T."""
+    solid = MixedSolid(block_mesh((2, 2, 2)), {"solid": ef.NeoHooke(0.5)})
+    a, b, h = np.array([1.0, 0.0, 0.0]), np.array([1.0, 1.0, 1.0]), np.array([0.5, 1.0, 1.0])
+    suture = Suture("s", a, b, shortening=0.0, bilateral=True, hold=h)
+    suture.setup(solid)
+    suture.set_load_factor(0.0)
+    k = SUTURE_EA / np.sqrt(2.0)
+    s = np.cross(b - a, a) / np.linalg.norm(np.cross(b - a, a))
+    assert suture.h.reference == pytest.approx(h) and suture.b.reference == pytest.approx(b)
+    uh = 1e-3 * s + np.array([0.0, 2e-3, 0.0])  # slid along s, and moved along the string's plane
+    if solid.comm.rank == suture.h.owner:
+        solid.w.x.array[suture.h.local] = uh
+    suture.state_changed()
+    assert suture.length == pytest.approx(np.sqrt(2.0), rel=1e-12)  # the string's ends did not move
+    assert suture.report()["force_on_second"] == pytest.approx(-SLIDE_STIFFNESS * k * (s @ uh) * s, rel=1e-9)
+    string, hold = suture._blocks()
+    assert string @ s == pytest.approx(np.zeros(3), abs=1e-12)  # at rest: no stiffness across the string
+    assert hold == pytest.approx(SLIDE_STIFFNESS * k * np.outer(s, s), rel=1e-12)

@@ -22,10 +22,19 @@ singular (a half model's symmetry plane hides it for a tire centred on it; the w
 not). The tied loop therefore also resists that motion, across the string and along the
 sclera: the relative displacement of its ends along s = E x N / |E x N| (E the string's
 reference direction, N the sclera's normal at the bite, both fixed) is held by a spring of
-``SLIDE_STIFFNESS`` times the string's stiffness, Pi_s = k_s / 2 (s . (u_b - u_a))^2, which
+``SLIDE_STIFFNESS`` times the string's stiffness, Pi_s = k_s / 2 (s . (u_h - u_a))^2, which
 picks the state that has not slid and carries almost nothing (a thousandth of the string's
 stiffness: a slide of 0.1 mm costs 1e-4 of k, against the string's tensions of k times a
-tenth of a mm).
+tenth of a mm). It ties the bite a to the buckle's node h that rests on the sclera (``hold``:
+the node of the buckle's inner surface under the string's end b; b itself if not given). The
+hold's two forces, +-k_s (s . (u_h - u_a)) s, are not along the line from a to h, so they make
+a couple (x_h - x_a) x f, which nothing in the eye balances but the support: tied to the top
+of a buckle of height H, that line has a part H along the radius and the couple of the slides
+at the two bites of a suture add up (a moment about the sclera's tangent, 2 H f, which tilts a
+whole eye held by its optic nerve); tied to the buckle's base, the line a-h lies in the
+sclera's tangent plane but for the buckle's clearance and its indentation, so each couple is
+about the normal and those of a suture's two bites, mirror images, cancel (the README's "The
+whole eye" gives the couples measured on a radial sponge, 2 mm high).
 
 Units: the default string stiffness assumes mm and N: a 5-0 polyester suture, E about
 5 GPa (5000 N/mm^2) and diameter 0.1 mm, has EA of about 40 N, and k = EA / l_0.
@@ -58,6 +67,8 @@ class Suture(Feature):
         first_surface, second_surface: surfaces to pick the nodes from.
         anchored: the second end is a fixed point in space, not a node.
         bilateral: the string also pushes (a loop tied around a buckle), see the module docstring.
+        hold, hold_surface: a bilateral suture's node of the buckle held against sliding along the
+            sclera (its base under ``second``, see the module docstring); default: the second end.
         share: the part of the suture in the model: 1/2 for a suture on a symmetry plane, whose
             mirror image holds the other half (its tension, stiffness and forces are halved).
     """
@@ -68,7 +79,8 @@ class Suture(Feature):
     def __init__(self, name: str, first: Sequence[float], second: Sequence[float], tension: float | None = None,
                  shortening: float | None = None, stiffness: float | None = None, first_surface: str | None = None,
                  second_surface: str | None = None, anchored: bool = False, bilateral: bool = False,
-                 share: float = 1.0, step: int = 0):
+                 share: float = 1.0, hold: Sequence[float] | None = None, hold_surface: str | None = None,
+                 step: int = 0):
         if (tension is None) == (shortening is None):
             raise SceneError(f"suture {name!r}: give exactly one of tension or shortening")
         what = f"suture {name!r}: "
@@ -81,6 +93,7 @@ class Suture(Feature):
         self.first_point, self.second_point = np.asarray(first, float), np.asarray(second, float)
         self.tension, self.shortening, self.stiffness = tension, shortening, stiffness
         self.surfaces, self.anchored, self.bilateral = (first_surface, second_surface), anchored, bilateral
+        self.hold_point = None if hold is None else (np.asarray(hold, float), hold_surface)
         self.factor = 0.0
 
     def setup(self, solid: MixedSolid) -> None:
@@ -95,7 +108,10 @@ class Suture(Feature):
         if self.shortening is not None and self.stiffness is None:
             self.stiffness = SUTURE_EA / self.initial_length
         self.across = np.zeros(3)  # s, the direction of the loop's slide spring (bilateral only)
+        self.h = self.b
         if self.bilateral and not self.anchored:
+            if self.hold_point is not None:
+                self.h = MaterialNode(solid, *self.hold_point)
             xa, xb = self.a.reference, self.b.reference
             across = np.cross(xb - xa, xa)  # the sclera's normal at the bite: the radius (its centre is the origin)
             if np.linalg.norm(across) > 1e-12 * np.linalg.norm(xa) * self.initial_length:
@@ -128,8 +144,8 @@ class Suture(Feature):
 
     def state_changed(self) -> None:
         xa, xb = self._ends()
-        if self.across.any():  # the loop's slide: s . (u_b - u_a)
-            self.slide = self.across @ ((xb - self.b.reference) - (xa - self.a.reference))
+        if self.across.any():  # the loop's slide: s . (u_h - u_a)
+            self.slide = self.across @ ((self.h.position() - self.h.reference) - (xa - self.a.reference))
         self.length = np.linalg.norm(xb - xa)
         self.direction = (xb - xa) / self.length
         if self.tension is not None:
@@ -141,44 +157,52 @@ class Suture(Feature):
             k = self.share * self.stiffness
             self.force, self.slope = (k * stretch, k) if taut else (0.0, 0.0)
 
-    def _block(self):
-        e, s = self.direction, self.across
-        block = self.slope * np.outer(e, e) + self.force / self.length * (np.eye(3) - np.outer(e, e))
-        return block + self.share * self.slide_stiffness * np.outer(s, s) if s.any() else block
+    def _blocks(self):
+        """The tangent's blocks: the string's on (a, b), the loop's hold on (a, h) (or None)."""
+        e = self.direction
+        string = self.slope * np.outer(e, e) + self.force / self.length * (np.eye(3) - np.outer(e, e))
+        s = self.across
+        return string, (self.share * self.slide_stiffness * np.outer(s, s) if s.any() else None)
 
-    def _pull(self):
-        """The force on the first end, toward the second: the string's, and the loop's hold."""
-        f = self.force * self.direction
-        return f + self.share * self.slide_stiffness * self.slide * self.across if self.across.any() else f
+    def _hold(self):
+        """The loop's hold on the first end, toward the buckle's node h (module docstring)."""
+        if not self.across.any():
+            return np.zeros(3)
+        return self.share * self.slide_stiffness * self.slide * self.across
 
     def add_to_residual(self, b: PETSc.Vec) -> None:
         if self.comm.rank != self.a.owner:  # one rank adds, PETSc sends rows to their owners
             return
-        f = self._pull()
-        b.setValues(self.a.dofs, -f, addv=PETSc.InsertMode.ADD_VALUES)
+        f = self.force * self.direction  # the string's pull on the first end, toward the second
+        hold = self._hold()
+        b.setValues(self.a.dofs, -(f + hold), addv=PETSc.InsertMode.ADD_VALUES)
         if self.b is not None:
             b.setValues(self.b.dofs, f, addv=PETSc.InsertMode.ADD_VALUES)
+            b.setValues(self.h.dofs, hold, addv=PETSc.InsertMode.ADD_VALUES)
 
     def add_to_jacobian(self, A: PETSc.Mat) -> None:
         if self.comm.rank != self.a.owner:
             return
-        K = self._block()
-        A.setValues(self.a.dofs, self.a.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
-        if self.b is not None:
-            A.setValues(self.b.dofs, self.b.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
-            A.setValues(self.a.dofs, self.b.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
-            A.setValues(self.b.dofs, self.a.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
+        for node, K in zip((self.b, self.h), self._blocks()):
+            if K is None:
+                continue
+            A.setValues(self.a.dofs, self.a.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
+            if node is not None:
+                A.setValues(node.dofs, node.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
+                A.setValues(self.a.dofs, node.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
+                A.setValues(node.dofs, self.a.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray] | None:
         if self.comm.rank != self.a.owner:
             return None
-        ends = [self.a.dofs] if self.b is None else [self.a.dofs, self.b.dofs]
-        dofs = np.concatenate(ends)
+        ends = [self.a.dofs] if self.b is None else [self.a.dofs, self.b.dofs, self.h.dofs]
+        dofs = np.unique(np.concatenate(ends))
         return np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs))
 
     def report(self) -> dict:
-        """The thread's tension, current and initial length, and the force the string puts on its
-        second end in the model (-share T e; the first end takes +share T e)."""
+        """The thread's tension, current and initial length, and the force the suture puts on the
+        body of its second end in the model: the string's, -share T e, and the loop's hold (at the
+        node h); the first end takes the opposite."""
         return {"tension": float(self.force / self.share), "share": self.share, "length": float(self.length),
                 "initial_length": float(self.initial_length),
-                "force_on_second": (-self._pull()).tolist()}
+                "force_on_second": (-self.force * self.direction - self._hold()).tolist()}

@@ -257,11 +257,15 @@ class EyeMeasures(Observer):
         along_meridian = 2 * half * math.sin(0.5 * (lo + hi)) < hi - lo  # a radial sponge
 
         def footprint(at):
-            """The sclera's nodes under the footprint turned to the azimuth ``at``, and around it."""
+            """The sclera's nodes under the footprint turned to the azimuth ``at``, and around it. A
+            node on a bound (the mesh puts nodes exactly 90 degrees from a buckle at a node azimuth)
+            is in or out by 1e-9 rad, not by the round-off of ``at``, which the partition decides."""
             away = np.abs(_turn(azimuth - at))
             if along_meridian:  # beside it, a width away in azimuth, on its side of the eye
-                return in_polar & (away <= half + 1e-9), in_polar & (away > 3 * half) & (away < 0.5 * math.pi)
-            beside = (polar < 2 * lo - hi) | (polar > 2 * hi - lo)  # a width away in the meridian, at its azimuths
+                return (in_polar & (away <= half + 1e-9),
+                        in_polar & (away > 3 * half + 1e-9) & (away < 0.5 * math.pi - 1e-9))
+            # a width away in the meridian, at its azimuths
+            beside = (polar < 2 * lo - hi - 1e-9) | (polar > 2 * hi - lo + 1e-9)
             return in_polar & (away <= half + 1e-9), beside & (away <= half + 1e-9)
 
         # the sclera beside a sponge is compared ring by ring (its footprint spans some 47 degrees of

@@ -125,7 +125,8 @@ def read_buckle_sutures(reading: Reading) -> None:
         if point["name"] in reading.sutures:
             raise t.error(f"suture name {point['name']!r} is used twice: rename the [[suture]]")
         reading.sutures.add(point["name"])
-        ends = {"first_surface": point["sclera_surface"], "second_surface": point["buckle_surface"]}
+        ends = {"first_surface": point["sclera_surface"], "second_surface": point["buckle_surface"],
+                "hold": point["hold"], "hold_surface": point["hold_surface"]}
         reading.add(t, Suture, point["name"], point["sclera"], point["buckle"], share=point["share"], **ends, **pull)
 
 

@@ -5,11 +5,13 @@ Here each suture is a string from a *sclera bite point* on the sclera's outer su
 length ``suture_width`` / 2 in front of or behind the buckle's centre line (the seed's "suture
 width", wider than the buckle, so that the tightened strings press the buckle into the eye), to a
 *buckle point*, a node of the top edge on the same side (front or back) of the sutured body: the
-tire if there is one, else the band. At each azimuth there are two sutures, "front" and "back", as
-the two arms of a mattress suture. By default the bites are ``SUTURE_MARGIN`` = 1 mm beyond each
-edge of the widest body: mattress sutures are placed 1 mm beyond each edge of the element, "so
-that the indent occurs when the buckle is tightened" (Cybersight/Orbis, "Simulated surgery:
-placing the sutures for a scleral buckle": 9 mm apart for a 7 mm buckle).
+tire if there is one, else the band (the loop holds the node of the body's base under it against
+sliding along the sclera: features/sutures.py says why the base). At each azimuth there are two
+sutures, "front" and "back", as the two arms of a mattress suture. By default the bites are
+``SUTURE_MARGIN`` = 1 mm beyond each edge of the widest body: mattress sutures are placed 1 mm
+beyond each edge of the element, "so that the indent occurs when the buckle is tightened"
+(Cybersight/Orbis, "Simulated surgery: placing the sutures for a scleral buckle": 9 mm apart for a
+7 mm buckle).
 
 A radial sponge (laid along the meridian) is tied across instead: at each of ``count`` polar
 angles along its length, two sutures ("side_0" and "side_1", at its smaller and larger azimuth)
@@ -64,9 +66,10 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     Returns:
         A list of dicts, two per azimuth ("back" then "front"): {"name": "suture_<azimuth>_<side>",
         "azimuth_deg", "side", "share" (1, or 1/2 on a cut plane of a wedge), "sclera": bite point
-        (x, y, z), "buckle": buckle point,
-        "sclera_surface": "sclera_outer", "buckle_surface": "<body>_outer"} -- ready for
-        ``Suture(name, first=sclera, second=buckle, first_surface=..., second_surface=...)``.
+        (x, y, z), "buckle": buckle point, "hold": the point of the buckle's base under it,
+        "sclera_surface": "sclera_outer", "buckle_surface": "<body>_outer", "hold_surface":
+        "<body>_inner"} -- ready for ``Suture(name, first=sclera, second=buckle, first_surface=...,
+        second_surface=..., hold=..., hold_surface=...)``.
     """
     layout = buckle_layout(**(parameters or {}))
     body = layout.bodies[layout.sutured]
@@ -86,11 +89,10 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
         for side, sign in zip(_SUTURE_SIDES, (-1, 1)):
             bite, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
             sclera = Ro * np.array([*(math.sin(bite) * direction), -math.cos(bite)])
-            buckle = body.outer_radius * np.array([*(math.sin(edge) * direction), -math.cos(edge)])
+            edge_direction = np.array([*(math.sin(edge) * direction), -math.cos(edge)])
             degrees = math.degrees(phi)
             sutures.append({"name": f"suture_{degrees:g}_{side}", "azimuth_deg": degrees, "side": side,
-                            "share": share, "sclera": tuple(sclera.tolist()), "buckle": tuple(buckle.tolist()),
-                            "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer"})
+                            "share": share, "sclera": tuple(sclera.tolist()), **_edge(body, edge_direction)})
     return sutures
 
 
@@ -115,13 +117,22 @@ def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width):
             bite = middle + sign * half
             sclera = Ro * np.array([math.sin(theta) * math.cos(bite), math.sin(theta) * math.sin(bite),
                                     -math.cos(theta)])
-            buckle = body.outer_radius * np.array([math.sin(theta) * math.cos(edge), math.sin(theta) * math.sin(edge),
-                                                   -math.cos(theta)])
+            edge_direction = np.array([math.sin(theta) * math.cos(edge), math.sin(theta) * math.sin(edge),
+                                       -math.cos(theta)])
             sutures.append({"name": f"suture_{math.degrees(theta):.4g}_{side}", "azimuth_deg": body.azimuth_deg,
                             "polar_deg": math.degrees(theta), "side": side, "share": 1.0,
-                            "sclera": tuple(sclera.tolist()), "buckle": tuple(buckle.tolist()),
-                            "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer"})
+                            "sclera": tuple(sclera.tolist()), **_edge(body, edge_direction)})
     return sutures
+
+
+def _edge(body: BuckleBody, direction: np.ndarray) -> dict:
+    """The buckle's end of a suture on the edge of the body seen from the origin along ``direction``
+    (a unit vector): its top edge ("buckle", on the outer surface), and under it the base that the
+    loop holds against sliding ("hold", on the inner surface: features/sutures.py)."""
+    return {"buckle": tuple((body.outer_radius * direction).tolist()),
+            "hold": tuple((body.inner_radius * direction).tolist()),
+            "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer",
+            "hold_surface": f"{body.name}_inner"}
 
 
 def _nearest(nodes: np.ndarray, value: float, middle: float, period: float | None = None) -> float:
