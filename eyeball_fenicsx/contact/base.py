@@ -109,9 +109,10 @@ class ContactFeature(Feature):
         self._growth, self._last_unsettled = 1.0, None  # the penalty's growth in this increment (augment)
         self._before = None  # the multipliers and penalty growth before the last augmentation (abandon)
         self._selection = None  # (the positions it was made at, the Selection)
-        # wall seconds, for benchmarks; "gather" (the master surface's displacements) includes
+        # wall seconds, for benchmarks; "gather" (the master nodes' displacements) and "exchange"
+        # (of the master segments near each rank's points, at a search: part of "search") include
         # waiting for the slowest rank
-        self.timing = {"search": 0.0, "assembly": 0.0, "gather": 0.0}
+        self.timing = {"search": 0.0, "assembly": 0.0, "gather": 0.0, "exchange": 0.0}
         self._contacts = {"residual": None, "jacobian": None}  # who touches what, at the last of each
 
     # -- the state -----------------------------------------------------------------------
