@@ -36,7 +36,7 @@ from petsc4py import PETSc
 from ..errors import SceneError
 from ..mechanics.solid import MixedSolid
 from .base import ContactFeature, Selection
-from .geometry import project, traction
+from .geometry import corner_normals, project, traction
 from .master import DistributedMaster
 from .policy import SEARCH_FACTOR
 from .search import candidate_pairs
@@ -111,7 +111,7 @@ class ContactPair(ContactFeature):
         self.motion, self.pattern_keys = 0.0, None
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._search()
-        self.pattern_keys = self._keys()
+        self.pattern_keys = self.candidate_keys = self._keys()
 
     # -- positions -----------------------------------------------------------------------
     def master_positions(self) -> np.ndarray:
@@ -172,13 +172,20 @@ class ContactPair(ContactFeature):
         same = table.node_global[table.segments[seg]][:, :, None] == facet_nodes[:, None, :]
         own = np.all(np.any(same, axis=1), axis=1)
         self.cand_point, self.cand_seg = point[~own], seg[~own]
+        self._feet_guess = None  # the centres
         self.timing["search"] += time.perf_counter() - start
 
     def _select(self, positions):
         xs, xm = positions
         point, seg = self.cand_point, self.cand_seg
-        patch = self.table.patch
-        proj = project(xs[point], self.point_N[point], xm[patch.nodes[seg]], patch.rows(seg), self.kind)
+        patch, k = self.table.patch, self.kind.corners
+        # the corners' normals once per segment, not once per candidate pair
+        used, inverse = np.unique(seg, return_inverse=True)
+        nu = corner_normals(xm[patch.nodes[used]], patch.rows(used), k)[inverse]
+        proj = project(xs[point], self.point_N[point], xm[self.table.segments[seg]], None, self.kind,
+                       start=self._feet_guess, nu=nu)
+        # Newton from the feet found last time, where they were on their segment
+        self._feet_guess = np.where(proj.inside[:, None], proj.xi, np.asarray(self.kind.centre))
         ok = proj.inside & (-proj.g <= self.table.thickness[seg])
         point, seg, g = point[ok], seg[ok], proj.g[ok]
         c = self.table.centroid[seg]
@@ -237,18 +244,15 @@ class ContactPair(ContactFeature):
         return np.unique(keys)
 
     def _reserve(self, A):
-        """Zeros in A for every candidate element, once after each search: PETSc drops the
-        preallocated room a final assembly left unused, so a point that meets a new segment
-        later in the increment would cost a malloc."""
+        """Zeros in A for every node pair the candidates may couple, once after each search:
+        PETSc drops the preallocated room a final assembly left unused, so a point that meets a
+        new segment later in the increment would cost a malloc."""
         if not self._unreserved:
             return
-        pairs = self._candidate_elements()
-        size = self.table.patch.nodes.shape[1]
-        master = self.table.node_dofs[self.table.patch.nodes[pairs[:, 1]]]
-        rows = np.hstack([self.facet_global[pairs[:, 0]], master.reshape(len(pairs), 3 * size)])
-        if len(rows):
-            zeros = np.zeros((len(rows), rows.shape[1], rows.shape[1]))
-            A.setValuesRCV(rows, rows, zeros, addv=PETSc.InsertMode.ADD_VALUES)
+        keys = self.candidate_keys
+        if len(keys):
+            A.setValuesRCV(self._node_dofs(keys // 2**31), self._node_dofs(keys % 2**31), np.zeros((len(keys), 3, 3)),
+                           addv=PETSc.InsertMode.ADD_VALUES)
         self._unreserved = False
 
     def begin_step(self, step_index: int) -> None:
@@ -258,7 +262,7 @@ class ContactPair(ContactFeature):
     def begin_increment(self) -> bool:
         self._search()
         self._unreserved = True
-        keys = self._keys()
+        keys = self.candidate_keys = self._keys()
         if not self._new_step and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
             return False
         self.pattern_keys, self._new_step = keys, False
@@ -266,8 +270,10 @@ class ContactPair(ContactFeature):
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray]:
         """Global (row, col) dofs of every node pair the candidates may couple."""
-        node_dofs = np.vstack([self.facet_global.reshape(-1, 3), self.table.node_dofs])
-        node_ids = node_dofs[:, 0].astype(np.int64)
-        row = node_dofs[_lookup(node_ids, self.pattern_keys // 2**31)]
-        col = node_dofs[_lookup(node_ids, self.pattern_keys % 2**31)]
+        row, col = self._node_dofs(self.pattern_keys // 2**31), self._node_dofs(self.pattern_keys % 2**31)
         return np.repeat(row, 3, axis=1).ravel(), np.tile(col, (1, 3)).ravel()
+
+    def _node_dofs(self, nodes):
+        """The global dofs (n, 3) of slave and master nodes this rank holds, by global node number."""
+        node_dofs = np.vstack([self.facet_global.reshape(-1, 3), self.table.node_dofs])
+        return node_dofs[_lookup(node_dofs[:, 0].astype(np.int64), nodes)]
