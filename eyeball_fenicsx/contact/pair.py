@@ -225,9 +225,10 @@ class ContactPair(ContactFeature):
         return point, gaps
 
     def _loaded_nodes(self, point):
-        """How many slave nodes (over all ranks) belong to a facet with a loaded point."""
-        mine = np.unique(self.facet_node_global[self.point_facet[point]])
-        return int(len(np.unique(np.concatenate(self.solid.comm.allgather(mine)))))
+        """How many slave nodes (over all ranks) belong to a facet with a loaded point (collective:
+        each node counted by its owner)."""
+        weights = self._nodal_sums(point, np.ones(len(point)))
+        return int(self.solid.comm.allreduce(np.count_nonzero(weights[: self._num_owned] > 0), op=MPI.SUM))
 
     # -- the matrix pattern --------------------------------------------------------------
     def _candidate_elements(self):
