@@ -208,7 +208,8 @@ class ContactPair(ContactFeature):
 
     def _gaps_along(self, du):
         """The points that project on a segment now, and their gaps at the state changed by
-        fraction * du as a function of fraction (a number, or one per point)."""
+        fraction * du as a function of fraction (a number, or one per point) and of which points
+        (default: all), each projection started from the point's foot now."""
         sel = self._selection_now()
         point, seg = sel.point, sel.target
         ghosted = self._ghosted(du)
@@ -218,10 +219,11 @@ class ContactPair(ContactFeature):
         xm, dxm = self.master_positions()[nodes], self._gather_master(du)[nodes]
         rows = self.table.patch.rows(seg)
 
-        def gaps(fraction):
-            fraction = np.broadcast_to(fraction, point.shape)
-            return project(xs + fraction[:, None] * dxs, self.point_N[point], xm + fraction[:, None, None] * dxm,
-                           rows, self.kind).g
+        def gaps(fraction, index=slice(None)):
+            f = np.broadcast_to(fraction, point[index].shape)
+            return project(xs[index] + f[:, None] * dxs[index], self.point_N[point[index]],
+                           xm[index] + f[:, None, None] * dxm[index], rows.rows(index), self.kind,
+                           start=sel.projection.xi[index]).g
         return point, gaps
 
     def _loaded_nodes(self, point):
