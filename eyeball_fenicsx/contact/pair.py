@@ -10,7 +10,8 @@ increment's motion), and takes the segment whose foot lies on it and is nearest;
 segments at an edge give the same foot there, and exact ties go to the segment with the
 smallest reference centroid (lexicographic), a rule that does not depend on the partition.
 A point farther inside than the element under the segment is on its far side, not in
-contact. Nothing is remembered between evaluations.
+contact. Nothing is remembered between evaluations but where each projection's Newton starts
+(the foot found last time on the same segment, until the next search).
 
 The matrix has room for every (slave facet, segment) pair a search finds; it is preallocated
 anew when a search finds a pair it has no room for, and at the first increment of every step,
