@@ -32,11 +32,28 @@ displacements, which includes waiting for the other ranks.
 
 writes benchmarks/results/contact_cost.json (with the commit, date, hardware and load under
 "run") and prints a table.
+
+**The eye** (``--eye``): the seed's encircling operation (demos/encircling_buckle_seed.toml: the
+band on the sclera and the detached retina on the choroid, both deformable pairs, active from the
+first step) on eyes of ``--n-circ`` sectors and ``--wall-layers``. The first increment of the
+first step ("pressurize"), its first ``--iterations`` Newton iterations, each with a new tangent
+(no factorization reuse): per Newton iteration, on the slowest rank, the contact's cost (the
+search and the exchange of the master segments at the start of the increment, spread over the
+iterations; the assembly of the contact residual and tangent with the selection and projection
+inside it, the gather of the master nodes' displacements inside that, and the other calls:
+the onset limit of the line search and the collective before a tangent) against the whole Newton
+iteration (residual and Jacobian assembly, contact included, factorization, triangular solves,
+line search), and PETSc's events for the phases:
+
+    mpirun -n 2 python3 benchmarks/contact_cost.py --eye --n-circ 40 80 112 --wall-layers 1 2 2
+
+writes benchmarks/results/contact_cost_eye.json and prints a table.
 """
 import argparse
 import json
 import os
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -46,6 +63,8 @@ from petsc4py import PETSc
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.contact import ContactPair
 from eyeball_fenicsx.output.console import silence
+from eyeball_fenicsx.scene.loader import load_scene
+from eyeball_fenicsx.system.stepping import ramp
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
 from provenance import run_record  # noqa: E402
@@ -56,6 +75,24 @@ SYMBOLIC = ["MatCholFctrSym", "MatLUFactorSym"]
 OTHER_CALLS = ["step_fraction", "tangent_outdated", "augment", "set_increment", "set_load_factor", "begin_step"]
 
 comm = MPI.COMM_WORLD
+HERE = os.path.dirname(os.path.abspath(__file__))
+EYE_SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle_seed.toml")
+PHASES = {"residual": ("SNESFunctionEval",), "jacobian": ("SNESJacobianEval",),
+          "factorization": ("MatLUFactorNum", "MatCholFctrNum"), "symbolic": tuple(SYMBOLIC), "solve": ("MatSolve",)}
+
+
+def master_segments(pair):
+    """The master surface's segments over all ranks (before the exchange, every rank held them all)."""
+    return pair.master.count if hasattr(pair, "master") else len(pair.segments)
+
+
+def slowest(seconds):
+    return comm.allreduce(seconds, op=MPI.MAX)
+
+
+def phase_seconds():
+    """Seconds so far per phase (PETSc events), on the slowest rank."""
+    return {k: slowest(sum(PETSc.Log.Event(e).getPerfInfo()["time"] for e in names)) for k, names in PHASES.items()}
 
 
 def symbolic():
@@ -123,16 +160,13 @@ def run(n):
     analysis_s = symbolic_after[1] - symbolic_before[1]
     increments = summary["steps"][-1]["increments"]
 
-    def slowest(seconds):
-        return comm.allreduce(seconds, op=MPI.MAX)
-
     contact = summary["steps"][-1]["contact"]["interface"]
     row = {
         "n": n,
         "cells": summary["cells"],
         "dofs": summary["dofs"],
         "slave_points": comm.allreduce(len(pair.weight), op=MPI.SUM),
-        "master_segments": len(pair.segments),
+        "master_segments": master_segments(pair),
         "active_nodes": contact["active_nodes"],
         "increments": len(increments),
         "newton_iterations": sum(i["newton_iterations"] for i in increments),
@@ -160,14 +194,104 @@ def run(n):
     return row
 
 
+def eye_run(n_circ, wall_layers, iterations):
+    """The first ``iterations`` Newton iterations of the operation's first increment on one eye;
+    return the measurements (module docstring)."""
+    with open(EYE_SCENE) as f:  # the shipped scene has no wall_layers for an override to change
+        text = f.read().replace("[mesh]\n", f"[mesh]\nwall_layers = {wall_layers}\n", 1)
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "scene.toml")
+        with open(path, "w") as f:
+            f.write(text)
+        start = time.perf_counter()
+        scene = load_scene(path, overrides={"mesh.n_circ": n_circ})
+    mesh_s = slowest(time.perf_counter() - start)
+    PETSc.Options()["eye_snes_max_it"] = iterations  # read again when the pattern grows: kept to the end
+    scene.build()
+    problem, newton = scene.problem, scene.newton
+    pairs = [f for f in scene.features if isinstance(f, ContactPair)]
+    spent = {"other_calls": 0.0}
+    for pair in pairs:
+        for name in OTHER_CALLS:
+            setattr(pair, name, timed(getattr(pair, name), spent, "other_calls"))
+        pair.timing.update({key: 0.0 for key in pair.timing})
+    newton.reuse_contraction = 0.0  # a new tangent every iteration
+    problem.begin_step(0)
+    x = problem.x
+    problem.state_to_vector(x)
+    increments = scene.steps[0].increments or scene.solver.increments
+    problem.set_load_factor([ramp(f.step, 0, 1.0 / increments) for f in problem.features])
+    before = phase_seconds()
+    comm.barrier()
+    start = time.perf_counter()
+    newton.update_pattern()  # the contact search (and exchange), a new matrix if the pattern grew
+    search = sum(p.timing["search"] for p in pairs)
+    increment_start_s = slowest(time.perf_counter() - start)
+    problem.set_increment(False)
+    factorized = newton.factorizations
+    start = time.perf_counter()
+    _, its, norm, reason = newton.solve(x)
+    newton_s = slowest(time.perf_counter() - start)
+    PETSc.Options().delValue("eye_snes_max_it")
+    phases = {k: v - before[k] for k, v in phase_seconds().items()}
+    timing = {key: slowest(sum(p.timing.get(key, 0.0) for p in pairs)) for key in ("search", "exchange", "gather")}
+    assembly_s = slowest(sum(p.timing["assembly"] for p in pairs))
+    contact_s = slowest(sum(p.timing["assembly"] for p in pairs) + spent["other_calls"] + search)
+    held = [len(p.table.segments) for p in pairs] if hasattr(pairs[0], "table") else [master_segments(p) for p in pairs]
+    row = {"n_circ": n_circ, "wall_layers": wall_layers,
+           "cells": scene.solid.mesh_data.mesh.topology.index_map(3).size_global, "unknowns": problem.n_global,
+           "slave_points": [comm.allreduce(len(p.weight), op=MPI.SUM) for p in pairs],
+           "master_segments": [master_segments(p) for p in pairs],
+           "master_segments_held_max_rank": [comm.allreduce(h, op=MPI.MAX) for h in held],
+           "mesh_s": mesh_s, "newton_iterations": its, "factorizations": newton.factorizations - factorized,
+           "residual_norm": norm, "reason": reason, "increment_start_s": increment_start_s, "newton_s": newton_s,
+           "phases_s": phases, "contact_search_s": timing["search"], "contact_exchange_s": timing["exchange"],
+           "contact_assembly_s": assembly_s, "contact_gather_s": timing["gather"],
+           "contact_other_calls_s": slowest(spent["other_calls"]), "contact_s": contact_s}
+    row["per_iteration_s"] = (newton_s + increment_start_s) / max(its, 1)
+    row["contact_per_iteration_s"] = contact_s / max(its, 1)
+    row["contact_share"] = contact_s / (newton_s + increment_start_s)
+    return row
+
+
+def eye_main(args, load):
+    rows = [eye_run(n, w, args.iterations) for n, w in zip(args.n_circ, args.wall_layers)]
+    run_info = run_record(comm, repeats=1, load_average_1min_at_start=load, n_circ=args.n_circ,
+                          wall_layers=args.wall_layers, iterations=args.iterations,
+                          solver="defaults, a new tangent every Newton iteration")
+    if comm.rank != 0:
+        return
+    out = args.out or os.path.join(HERE, "results", "contact_cost_eye.json")
+    with open(out + ".tmp", "w") as f:
+        json.dump({"run": run_info, "ranks": comm.size, "rows": rows}, f, indent=1)
+    os.replace(out + ".tmp", out)
+    print(f"{comm.size} ranks, load {load:.2f} at the start; seconds per Newton iteration on the slowest rank")
+    print(f"{'n_circ':>6} {'wall':>4} {'cells':>6} {'unknowns':>8} {'its':>3} {'iteration':>9} {'factor.':>7} "
+          f"{'contact':>7} {'search+exch.':>12} {'assembly':>8} {'(gather)':>8} {'other':>6} {'share %':>7}")
+    for r in rows:
+        its = max(r["newton_iterations"], 1)
+        print(f"{r['n_circ']:>6} {r['wall_layers']:>4} {r['cells']:>6} {r['unknowns']:>8} {its:>3} "
+              f"{r['per_iteration_s']:>9.3f} {r['phases_s']['factorization'] / its:>7.3f} "
+              f"{r['contact_per_iteration_s']:>7.3f} {r['contact_search_s'] / its:>12.4f} "
+              f"{r['contact_assembly_s'] / its:>8.3f} {r['contact_gather_s'] / its:>8.4f} "
+              f"{r['contact_other_calls_s'] / its:>6.3f} {100 * r['contact_share']:>7.1f}")
+
+
 def main():
     silence()  # no line per load increment: the tables say it
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[6, 12, 18])
-    parser.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "contact_cost.json"))
+    parser.add_argument("--out", default=None)
+    parser.add_argument("--eye", action="store_true", help="the encircling operation's first Newton iterations")
+    parser.add_argument("--n-circ", type=int, nargs="+", default=[40, 80, 112])
+    parser.add_argument("--wall-layers", type=int, nargs="+", default=[1, 2, 2])
+    parser.add_argument("--iterations", type=int, default=4)
     args = parser.parse_args()
     load = os.getloadavg()[0]
     PETSc.Log.begin()
+    if args.eye:
+        return eye_main(args, load)
+    args.out = args.out or os.path.join(HERE, "results", "contact_cost.json")
     rows = [run(n) for n in args.sizes]
     run_info = run_record(comm, repeats=1, load_average_1min_at_start=load, sizes=args.sizes,
                           solver="defaults, 8 increments")

@@ -178,8 +178,24 @@ def test_finer_and_wedge_meshes_keep_their_quality():
     assert pole.info["axial_length"] == pytest.approx(24.0 - 0.2, abs=1e-9)
 
 
+def test_wall_layers_refine_through_the_wall_only():
+    # Numpy only: wall_layers = 2 doubles every layer of the wall (sclera and cornea, choroid and
+    # retina, and the ciliary body revolved with them) and leaves the rest of the mesh; the layers
+    # divide the same thickness, so the cavities' walls do not move.
+    coarse = eye.eye_geometry(sector_deg=90, n_circ=16)
+    layered = eye.eye_geometry(sector_deg=90, n_circ=16, wall_layers=2)
+    before, after = coarse.info["per_region"], layered.info["per_region"]
+    for region in ("sclera", "cornea", "choroid", "retina", "ciliary_body"):
+        assert after[region] == 2 * before[region], region
+    for region in ("lens", "zonule", "optic_nerve"):
+        assert after[region] == before[region], region
+    assert layered.info["vitreous_volume"] == pytest.approx(coarse.info["vitreous_volume"], rel=1e-12)
+    assert layered.info["min_scaled_jacobian"] > 0.45
+
+
 @pytest.mark.parametrize("options, fragment", [
     ({"refine": 0}, "refine must be a positive integer"),
+    ({"wall_layers": 0}, "wall_layers must be a positive integer"),
     ({"sector_deg": 120}, "sector_deg must be one of"),
     ({"sector_deg": 180, "n_circ": 20}, "n_circ must be a multiple of 8"),
     ({"axial_length": -24.0}, "axial_length must be a positive number"),

@@ -216,6 +216,9 @@ CASES = {
                                            ["[mesh]", "must rest on the sclera", "band_position 30.0"]),
     "eye-sector-out-of-range": (eye("sector_deg = 45\n"), ["[mesh]", "sector_deg must be one of", "45"]),
     "eye-n-circ-too-small": (eye("n_circ = 4\n"), ["[mesh]", "n_circ must be a multiple of 8", "got 4"]),
+    "eye-zero-wall-layers": (eye("wall_layers = 0\n"), ["[mesh]", "wall_layers must be a positive integer", "got 0"]),
+    "buckled-eye-fractional-wall-layers": (BUCKLED_EYE + "wall_layers = 1.5\n" + BUCKLE_MATERIALS,
+                                           ["[mesh]", "wall_layers must be a positive integer", "got 1.5"]),
     "eye-detachment-beyond-the-ora": (
         eye("detachment = { polar_deg = 0.0, extent_deg = 170.0, gap = 0.1 }\n"),
         ["[mesh]", "detachment must lie in the retina", "0.0 + 170.0"]),

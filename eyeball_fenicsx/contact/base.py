@@ -90,7 +90,8 @@ class ContactFeature(Feature):
     interpolates, (n, k)) and ``point_N`` (their weights) per point, ``slave_dofs`` (the owned slave nodes'
     local dofs, (n, 3)) and ``mean_penalty``; and give ``_positions()`` (collective: the
     state the selection depends on), ``_select(positions)``, ``_forces(selection, index, p,
-    k, tangent)`` and ``_gaps_along(du)``.
+    k, tangent)`` and ``_gaps_along(du)`` (the points and their gaps at fractions of du, of all the
+    points or of some).
     """
 
     section = "contact"
@@ -109,9 +110,10 @@ class ContactFeature(Feature):
         self._growth, self._last_unsettled = 1.0, None  # the penalty's growth in this increment (augment)
         self._before = None  # the multipliers and penalty growth before the last augmentation (abandon)
         self._selection = None  # (the positions it was made at, the Selection)
-        # wall seconds, for benchmarks; "gather" (the master surface's displacements) includes
+        # wall seconds, for benchmarks; "gather" (the master nodes' displacements) and "exchange"
+        # (of the master segments near each rank's points, at a search: part of "search") include
         # waiting for the slowest rank
-        self.timing = {"search": 0.0, "assembly": 0.0, "gather": 0.0}
+        self.timing = {"search": 0.0, "assembly": 0.0, "gather": 0.0, "exchange": 0.0}
         self._contacts = {"residual": None, "jacobian": None}  # who touches what, at the last of each
 
     # -- the state -----------------------------------------------------------------------
@@ -301,15 +303,16 @@ class ContactFeature(Feature):
         shift = self._point_multipliers()[point] / self.alpha[point]
         depth = np.maximum(force / (self.alpha[point] * self.weight[point]), ONSET_DEPTH * self.thickness[point])
         now, new = gaps(0.0) - shift + depth, gaps(1.0) - shift + depth
-        closing = (now > depth + self.open_gap) & (new < 0)
-        lo, hi, f_lo, f_hi = np.zeros(len(point)), np.ones(len(point)), now, new
-        for _ in range(ONSET_ITERATIONS if self.solid.comm.allreduce(closing.any(), op=MPI.LOR) else 0):
-            trial = np.where(closing, lo + (hi - lo) * f_lo / (f_lo - f_hi), 1.0)
-            f = gaps(trial) - shift + depth
+        closing = np.flatnonzero((now > depth + self.open_gap) & (new < 0))  # only these are searched
+        shift, depth = shift[closing], depth[closing]
+        lo, hi, f_lo, f_hi = np.zeros(len(closing)), np.ones(len(closing)), now[closing], new[closing]
+        for _ in range(ONSET_ITERATIONS if self.solid.comm.allreduce(len(closing) > 0, op=MPI.LOR) else 0):
+            trial = lo + (hi - lo) * f_lo / (f_lo - f_hi)
+            f = gaps(trial, closing) - shift + depth
             below = f < 0
             f_lo, lo = np.where(below, 0.5 * f_lo, f), np.where(below, lo, trial)  # Illinois: halve the
             f_hi, hi = np.where(below, f, 0.5 * f_hi), np.where(below, trial, hi)  # end that stays
-        return self.solid.comm.allreduce(np.min(hi[closing], initial=1.0), op=MPI.MIN)
+        return self.solid.comm.allreduce(np.min(hi, initial=1.0), op=MPI.MIN)
 
     # -- a checkpoint (output/checkpoint.py) ----------------------------------------------
     def checkpoint_state(self) -> dict:

@@ -201,20 +201,26 @@ class Projection:
         return Projection(self.g[index], self.xi[index], self.inside[index], self.normal[index], self.N[index])
 
 
-def project(x_s: np.ndarray, N_s: np.ndarray, x_p: np.ndarray, patch: Patches, kind: type, derivatives: bool = False,
-            start: np.ndarray | None = None, iterations: int = 25, tolerance: float = 1e-12) -> Projection:
+def project(x_s: np.ndarray, N_s: np.ndarray, x_p: np.ndarray, patch: Patches | None, kind: type,
+            derivatives: bool = False, start: np.ndarray | None = None, iterations: int = 25, tolerance: float = 1e-12,
+            nu: np.ndarray | None = None) -> Projection:
     """Project slave points on master segments along the interpolated nodal normal field.
 
     Args:
         x_s: (n, 3) slave points; N_s: (n, k_s) their weights on their slave facet's nodes.
-        x_p: (n, P, 3) positions of the master patch nodes (the segment's corners first).
-        patch: ``Patches`` with one row per point (``Patches.rows``).
+        x_p: (n, P, 3) positions of the master patch nodes (the segment's corners first; the
+            corners suffice when ``nu`` is given and no derivatives are asked).
+        patch: ``Patches`` with one row per point (``Patches.rows``); None when ``nu`` is given
+            and no derivatives are asked.
         kind: ``Quad`` or ``Triangle`` (the master segment).
         derivatives: also the derivatives over the slave facet's and the patch's nodes.
         start: the feet (n, 2) to start Newton from (default: the segments' centres).
+        nu: the corners' normals (n, k, 3) (``corner_normals``), when already known.
     """
-    e_next, e_prev = _patch_edges(x_p, patch, kind.corners)
-    nu = np.einsum("naij,naj->nai", patch.mirror, np.cross(e_next, e_prev).sum(axis=2)) / patch.scale[:, :, None]
+    edges = None
+    if nu is None or derivatives:
+        edges = _patch_edges(x_p, patch, kind.corners)
+        nu = _normals(edges, patch)
     x_seg = x_p[:, : kind.corners]
     xi, g, converged = _feet(x_s, nu, x_seg, kind, start, iterations, tolerance)
     N, dN, m, m_b, J = _frame(kind, xi, g, nu, x_seg)
@@ -222,8 +228,18 @@ def project(x_s: np.ndarray, N_s: np.ndarray, x_p: np.ndarray, patch: Patches, k
     normal = m / length[:, None]
     result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, normal, N)
     if derivatives:
-        _add_derivatives(result, N_s, x_p.shape[1], patch, (e_next, e_prev), g, dN, m_b, J, length)
+        _add_derivatives(result, N_s, x_p.shape[1], patch, edges, g, dN, m_b, J, length)
     return result
+
+
+def corner_normals(x_p: np.ndarray, patch: Patches, k: int) -> np.ndarray:
+    """The normals nu_a (n, k, 3) at the corners of segments with patch nodes at x_p (n, P, 3)."""
+    return _normals(_patch_edges(x_p, patch, k), patch)
+
+
+def _normals(edges, patch):
+    e_next, e_prev = edges
+    return np.einsum("naij,naj->nai", patch.mirror, np.cross(e_next, e_prev).sum(axis=2)) / patch.scale[:, :, None]
 
 
 def _patch_edges(x_p, patch, k):
@@ -240,9 +256,25 @@ def _frame(kind, xi, g, nu, x_seg):
     """N, dN, the normal field m and its derivatives m_b at the feet xi, and the Jacobian
     [T_1, T_2, m] of the projection's residual over (xi, g)."""
     N, dN = kind.shape(xi)
-    m, m_b = np.einsum("na,nai->ni", N, nu), np.einsum("nab,nai->nbi", dN, nu)
-    T = np.einsum("nab,nai->nbi", dN, x_seg) + g[:, None, None] * m_b
+    dN_t = dN.transpose(0, 2, 1)
+    m, m_b = _at(N, nu), dN_t @ nu  # batched products: several times faster than einsum here
+    T = dN_t @ x_seg + g[:, None, None] * m_b
     return N, dN, m, m_b, np.stack([T[:, 0], T[:, 1], m], axis=2)  # columns T_1, T_2, m
+
+
+def _solve3(J, r):
+    """x with J x = r for a stack of 3 x 3 systems (n, 3, 3), by Cramer's rule (the columns' cross
+    products: several times faster than LAPACK on so small systems)."""
+    c0, c1, c2 = J[:, :, 0], J[:, :, 1], J[:, :, 2]
+    c12 = np.cross(c1, c2)
+    det = np.einsum("ni,ni->n", c0, c12)
+    return np.column_stack([np.einsum("ni,ni->n", r, c12), np.einsum("ni,ni->n", c0, np.cross(r, c2)),
+                            np.einsum("ni,ni->n", c0, np.cross(c1, r))]) / det[:, None]
+
+
+def _at(N, values):
+    """sum_a N_a values_a (n, 3) of weights N (n, k) and nodal values (n, k, 3)."""
+    return (N[:, None, :] @ values)[:, 0]
 
 
 def _feet(x_s, nu, x_seg, kind, start, iterations, tolerance):
@@ -253,14 +285,14 @@ def _feet(x_s, nu, x_seg, kind, start, iterations, tolerance):
     size = np.sqrt(np.linalg.norm(np.cross(x_seg[:, 2] - x_seg[:, 0], x_seg[:, -1] - x_seg[:, 1]), axis=1))
     xi = np.tile(np.asarray(kind.centre, dtype=float), (n, 1)) if start is None else start.copy()
     N, _ = kind.shape(xi)
-    m = np.einsum("na,nai->ni", N, nu)
-    g = np.einsum("ni,ni->n", x_s - np.einsum("na,nai->ni", N, x_seg), m) / np.einsum("ni,ni->n", m, m)
+    m = _at(N, nu)
+    g = np.einsum("ni,ni->n", x_s - _at(N, x_seg), m) / np.einsum("ni,ni->n", m, m)
     converged = np.zeros(n, dtype=bool)
     moving = np.arange(n)
     for _ in range(iterations):  # Newton on (xi, g), on the points still moving
         N, _, m, _, J = _frame(kind, xi[moving], g[moving], nu[moving], x_seg[moving])
-        residual = x_s[moving] - np.einsum("na,nai->ni", N, x_seg[moving]) - g[moving, None] * m
-        step = np.linalg.solve(J, residual[:, :, None])[:, :, 0]
+        residual = x_s[moving] - _at(N, x_seg[moving]) - g[moving, None] * m
+        step = _solve3(J, residual)
         trial = xi[moving] + step[:, :2]
         xi[moving], g[moving] = np.clip(trial, *kind.bounds), g[moving] + step[:, 2]
         small = (np.abs(step[:, :2]).max(axis=1) < tolerance) & (np.abs(step[:, 2]) < tolerance * size[moving])

@@ -10,7 +10,8 @@ increment's motion), and takes the segment whose foot lies on it and is nearest;
 segments at an edge give the same foot there, and exact ties go to the segment with the
 smallest reference centroid (lexicographic), a rule that does not depend on the partition.
 A point farther inside than the element under the segment is on its far side, not in
-contact. Nothing is remembered between evaluations.
+contact. Nothing is remembered between evaluations but where each projection's Newton starts
+(the foot found last time on the same segment, until the next search).
 
 The matrix has room for every (slave facet, segment) pair a search finds; it is preallocated
 anew when a search finds a pair it has no room for, and at the first increment of every step,
@@ -18,10 +19,11 @@ so that a step's arithmetic depends on the state it starts from only: a step res
 checkpoint (output/checkpoint.py, which keeps the displacement of the last search and its
 motion) repeats the interrupted run's to the bit.
 
-Parallel: the master surface (segments as global node numbers, reference coordinates, and
-the displacements of its nodes at every state) is gathered on every rank; each rank owns the
-slave facets of its cells. Forces go to global rows; rows of nodes owned elsewhere reach
-their owners through PETSc's stash.
+Parallel: each rank owns the slave facets of its cells, and holds of the master surface only
+the segments whose search boxes meet the box of its slave points, with the nodes their normal
+fields need (``master.py``: a bounding-box exchange at every search, and a scatter of those
+nodes' displacements at every evaluation); no rank holds the whole master surface. Forces go to
+global rows; rows of nodes owned elsewhere reach their owners through PETSc's stash.
 """
 from __future__ import annotations
 
@@ -35,7 +37,8 @@ from petsc4py import PETSc
 from ..errors import SceneError
 from ..mechanics.solid import MixedSolid
 from .base import ContactFeature, Selection
-from .geometry import patches, project, traction
+from .geometry import corner_normals, project, traction
+from .master import DistributedMaster
 from .policy import SEARCH_FACTOR
 from .search import candidate_pairs
 from .surface import SolidTables, default_penalty, surface
@@ -103,40 +106,25 @@ class ContactPair(ContactFeature):
         self.point_nodes = slave.facets[self.point_facet]
         self._setup_common(solid)
 
-        # the master surface on every rank: the nodes each rank owns, in rank order
-        self.master_dofs = tables.dofs[master.nodes]
-        self.master_counts = 3 * np.array(comm.allgather(len(master.nodes)))
-        gathered = comm.allgather((tables.global_index[master.nodes], tables.global_index[self.master_dofs],
-                                   tables.X[master.nodes], tables.global_index[master.facets], master.thickness))
-        node_global = np.concatenate([g[0] for g in gathered]).astype(np.int64)
-        self.master_global = np.concatenate([g[1] for g in gathered]).reshape(-1, 3)
-        self.master_X = np.concatenate([g[2] for g in gathered]).reshape(-1, 3)
-        self.segments = _lookup(node_global, np.concatenate([g[3] for g in gathered]).reshape(-1, self.kind.corners))
-        self.segment_thickness = np.concatenate([g[4] for g in gathered])
-        self.master_node_global = node_global
-        self.patch = patches(self.segments, self.master_X, self.symmetry)
-        x = self.master_X[self.segments]
-        self.segment_size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))
-        self.centroid = x.mean(axis=1)
+        # the master segments near this rank's slave points, exchanged at every search (master.py)
+        self.master = DistributedMaster(comm, tables, master, self.symmetry)
         self._unreserved, self._new_step = True, False
         self.motion, self.pattern_keys = 0.0, None
-        self._last = (self._slave_points(), self.master_positions())
+        self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._search()
-        self.pattern_keys = self._keys()
+        self.pattern_keys = self.candidate_keys = self._keys()
 
     # -- positions -----------------------------------------------------------------------
     def master_positions(self) -> np.ndarray:
-        """Current coordinates of every master node (collective: gathers the displacements)."""
-        return self.master_X + self._gather_master(self.solid.w.x.array)
+        """Current coordinates of the master nodes this rank holds (collective)."""
+        return self.table.node_X + self._gather_master(self.solid.w.x.array)
 
     def _gather_master(self, values):
-        """The master nodes' entries (n, 3) of a mixed vector's local array, from every rank."""
+        """The entries (n, 3) of a mixed dof array at the master nodes this rank holds (collective)."""
         start = time.perf_counter()
-        mine = np.ascontiguousarray(values[self.master_dofs]).ravel()
-        u = np.empty(self.master_counts.sum())
-        self.solid.comm.Allgatherv(mine, [u, self.master_counts])
+        u = self.master.displacements(values)
         self.timing["gather"] += time.perf_counter() - start
-        return u.reshape(-1, 3)
+        return u
 
     def _facet_nodes(self, values):
         """Current coordinates (m, k, 3) of the slave facets' nodes, from a ghosted array."""
@@ -159,75 +147,91 @@ class ContactPair(ContactFeature):
     def restore_state(self, state: dict) -> None:
         super().restore_state(state)
         self._searched, self.motion = state["searched"], state["motion"]
-        self._last = (self._slave_points(self._facet_nodes(self._searched)),
-                      self.master_X + self._gather_master(self._searched))
+        self._last = (self._slave_points(self._facet_nodes(self._searched)), self.master.corners(self._searched))
 
     # -- search and selection ------------------------------------------------------------
     def _search(self):
-        """Candidate segments of each point, from the current positions."""
+        """Candidate segments of each point, from the current positions (collective: the master
+        segments near this rank's points are exchanged first, master.py)."""
         start = time.perf_counter()
-        xs, xm = self._slave_points(), self.master_positions()
-        moved = max(np.abs(xs - self._last[0]).max(initial=0.0), np.abs(xm - self._last[1]).max(initial=0.0))
+        values = self.solid.w.x.array
+        xs, corners = self._slave_points(), self.master.corners(values)
+        moved = max(np.abs(xs - self._last[0]).max(initial=0.0), np.abs(corners - self._last[1]).max(initial=0.0))
         self.motion = self.solid.comm.allreduce(moved, op=MPI.MAX) or self.motion
-        self._last, self._searched = (xs, xm), self.solid.w.x.array.copy()
-        x = xm[self.segments]
-        reach = (SEARCH_FACTOR * self.segment_size + 2.0 * self.motion)[:, None]
+        self._last, self._searched = (xs, corners), values.copy()
+        exchange = time.perf_counter()
+        table = self.table = self.master.exchange(xs, corners, SEARCH_FACTOR * self.master.size + 2.0 * self.motion)
+        self._selection = None  # its segments were the last table's
+        self.timing["exchange"] += time.perf_counter() - exchange
+        x = self.master_positions()[table.segments]
+        reach = (SEARCH_FACTOR * table.size + 2.0 * self.motion)[:, None]
         point, seg = candidate_pairs(xs, x.min(axis=1) - reach, x.max(axis=1) + reach)
         # a segment made of the point's own facet's nodes is that facet (surfaces that overlap);
         # segments that only share nodes with it stay: a detached retina meets the choroid facets
         # it shares its rim with, and its Gauss points lie inside its facet, off the shared nodes
         facet_nodes = self.facet_node_global[self.point_facet[point]]
-        same = self.master_node_global[self.segments[seg]][:, :, None] == facet_nodes[:, None, :]
+        same = table.node_global[table.segments[seg]][:, :, None] == facet_nodes[:, None, :]
         own = np.all(np.any(same, axis=1), axis=1)
         self.cand_point, self.cand_seg = point[~own], seg[~own]
+        self._feet_guess = None  # the centres
         self.timing["search"] += time.perf_counter() - start
 
     def _select(self, positions):
         xs, xm = positions
         point, seg = self.cand_point, self.cand_seg
-        proj = project(xs[point], self.point_N[point], xm[self.patch.nodes[seg]], self.patch.rows(seg), self.kind)
-        ok = proj.inside & (-proj.g <= self.segment_thickness[seg])
+        patch, k = self.table.patch, self.kind.corners
+        # the corners' normals once per segment, not once per candidate pair
+        used, inverse = np.unique(seg, return_inverse=True)
+        nu = corner_normals(xm[patch.nodes[used]], patch.rows(used), k)[inverse]
+        proj = project(xs[point], self.point_N[point], xm[self.table.segments[seg]], None, self.kind,
+                       start=self._feet_guess, nu=nu)
+        # Newton from the feet found last time, where they were on their segment
+        self._feet_guess = np.where(proj.inside[:, None], proj.xi, np.asarray(self.kind.centre))
+        ok = proj.inside & (-proj.g <= self.table.thickness[seg])
         point, seg, g = point[ok], seg[ok], proj.g[ok]
-        c = self.centroid[seg]
+        c = self.table.centroid[seg]
         order = np.lexsort((c[:, 2], c[:, 1], c[:, 0], np.abs(g), point))
         first = order[np.r_[True, point[order][1:] != point[order][:-1]]] if len(order) else order
         return Selection(point[first], seg[first], g[first], proj.take(np.flatnonzero(ok)[first]))
 
     def _forces(self, sel, index, p, k, tangent):
         point, seg = sel.point[index], sel.target[index]
-        proj = sel.projection.take(index)
+        proj, patch = sel.projection.take(index), self.table.patch
         if tangent:  # the derivatives, from the feet the selection found
             xs, xm = self._selection[0]
-            proj = project(xs[point], self.point_N[point], xm[self.patch.nodes[seg]], self.patch.rows(seg), self.kind,
+            proj = project(xs[point], self.point_N[point], xm[patch.nodes[seg]], patch.rows(seg), self.kind,
                            derivatives=True, start=proj.xi)
-        size = self.patch.nodes.shape[1]
+        size = patch.nodes.shape[1]
         r, K = traction(self.weight[point], p, k, proj, self.point_N[point], size, tangent)
         rows = np.hstack([self.facet_global[self.point_facet[point]],
-                          self.master_global[self.patch.nodes[seg]].reshape(len(point), 3 * size)])
+                          self.table.node_dofs[patch.nodes[seg]].reshape(len(point), 3 * size)])
         return rows, r, K, proj.normal
 
     def _gaps_along(self, du):
         """The points that project on a segment now, and their gaps at the state changed by
-        fraction * du as a function of fraction (a number, or one per point)."""
+        fraction * du as a function of fraction (a number, or one per point) and of which points
+        (default: all), each projection started from the point's foot now."""
         sel = self._selection_now()
         point, seg = sel.point, sel.target
         ghosted = self._ghosted(du)
         xs = self._slave_points()[point]
         dxs = self._slave_points(ghosted[self.facet_dofs])[point]
-        xm = self.master_positions()[self.patch.nodes[seg]]
-        dxm = self._gather_master(du)[self.patch.nodes[seg]]
-        rows = self.patch.rows(seg)
+        nodes = self.table.patch.nodes[seg]
+        xm, dxm = self.master_positions()[nodes], self._gather_master(du)[nodes]
+        rows = self.table.patch.rows(seg)
 
-        def gaps(fraction):
-            fraction = np.broadcast_to(fraction, point.shape)
-            return project(xs + fraction[:, None] * dxs, self.point_N[point], xm + fraction[:, None, None] * dxm,
-                           rows, self.kind).g
+        def gaps(fraction, index=slice(None)):
+            f = np.broadcast_to(fraction, point[index].shape)
+            return project(xs[index] + f[:, None] * dxs[index], self.point_N[point[index]],
+                           xm[index] + f[:, None, None] * dxm[index], rows.rows(index), self.kind,
+                           start=sel.projection.xi[index]).g
         return point, gaps
 
     def _loaded_nodes(self, point):
-        """How many slave nodes (over all ranks) belong to a facet with a loaded point."""
-        mine = np.unique(self.facet_node_global[self.point_facet[point]])
-        return int(len(np.unique(np.concatenate(self.solid.comm.allgather(mine)))))
+        """How many slave nodes (over all ranks) belong to a facet with a loaded point (collective:
+        each node counted by its owner)."""
+        weights = self._nodal_sums(point, np.ones(len(point)))
+        return int(self.solid.comm.allreduce(np.count_nonzero(weights[: self._num_owned] > 0), op=MPI.SUM))
 
     # -- the matrix pattern --------------------------------------------------------------
     def _candidate_elements(self):
@@ -238,23 +242,21 @@ class ContactPair(ContactFeature):
         """The (row node, column node) pairs the candidates may couple, as int64 keys."""
         pairs = self._candidate_elements()
         slave = self.facet_node_global[pairs[:, 0]]
-        master = self.master_node_global[self.patch.nodes[pairs[:, 1]]]
+        master = self.table.node_global[self.table.patch.nodes[pairs[:, 1]]]
         nodes = np.hstack([slave, master])
         keys = nodes[:, :, None] * 2**31 + nodes[:, None, :]
         return np.unique(keys)
 
     def _reserve(self, A):
-        """Zeros in A for every candidate element, once after each search: PETSc drops the
-        preallocated room a final assembly left unused, so a point that meets a new segment
-        later in the increment would cost a malloc."""
+        """Zeros in A for every node pair the candidates may couple, once after each search:
+        PETSc drops the preallocated room a final assembly left unused, so a point that meets a
+        new segment later in the increment would cost a malloc."""
         if not self._unreserved:
             return
-        pairs = self._candidate_elements()
-        master = self.master_global[self.patch.nodes[pairs[:, 1]]]
-        rows = np.hstack([self.facet_global[pairs[:, 0]], master.reshape(len(pairs), 3 * self.patch.nodes.shape[1])])
-        if len(rows):
-            zeros = np.zeros((len(rows), rows.shape[1], rows.shape[1]))
-            A.setValuesRCV(rows, rows, zeros, addv=PETSc.InsertMode.ADD_VALUES)
+        keys = self.candidate_keys
+        if len(keys):
+            A.setValuesRCV(self._node_dofs(keys // 2**31), self._node_dofs(keys % 2**31), np.zeros((len(keys), 3, 3)),
+                           addv=PETSc.InsertMode.ADD_VALUES)
         self._unreserved = False
 
     def begin_step(self, step_index: int) -> None:
@@ -264,7 +266,7 @@ class ContactPair(ContactFeature):
     def begin_increment(self) -> bool:
         self._search()
         self._unreserved = True
-        keys = self._keys()
+        keys = self.candidate_keys = self._keys()
         if not self._new_step and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
             return False
         self.pattern_keys, self._new_step = keys, False
@@ -272,8 +274,10 @@ class ContactPair(ContactFeature):
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray]:
         """Global (row, col) dofs of every node pair the candidates may couple."""
-        node_dofs = np.vstack([self.facet_global.reshape(-1, 3), self.master_global])
-        node_ids = node_dofs[:, 0].astype(np.int64)
-        row = node_dofs[_lookup(node_ids, self.pattern_keys // 2**31)]
-        col = node_dofs[_lookup(node_ids, self.pattern_keys % 2**31)]
+        row, col = self._node_dofs(self.pattern_keys // 2**31), self._node_dofs(self.pattern_keys % 2**31)
         return np.repeat(row, 3, axis=1).ravel(), np.tile(col, (1, 3)).ravel()
+
+    def _node_dofs(self, nodes):
+        """The global dofs (n, 3) of slave and master nodes this rank holds, by global node number."""
+        node_dofs = np.vstack([self.facet_global.reshape(-1, 3), self.table.node_dofs])
+        return node_dofs[_lookup(node_dofs[:, 0].astype(np.int64), nodes)]

@@ -153,8 +153,9 @@ class RigidContact(ContactFeature):
         x, dx = self._positions()[0], du[self.slave_dofs]
         point = np.arange(len(x))
 
-        def gaps(fraction):
-            return self.shape.gap(x + np.broadcast_to(fraction, len(x))[:, None] * dx, self.shift)[0]
+        def gaps(fraction, index=slice(None)):
+            y, dy = x[index], dx[index]
+            return self.shape.gap(y + np.broadcast_to(fraction, len(y))[:, None] * dy, self.shift)[0]
         return point, gaps
 
     def _loaded_nodes(self, point):

@@ -79,6 +79,7 @@ def _check_parameters(p):
         if not low <= p[name] <= high:
             raise SceneError(f"eye: {name} must be between {low:g} and {high:g} mm, got {p[name]!r}")
     check("eye", "refine", p["refine"], "positive integer")
+    check("eye", "wall_layers", p["wall_layers"], "positive integer")
     check("eye", "n_circ", p["n_circ"], "positive integer")
     if p["sector_deg"] not in _SECTORS:
         raise SceneError(f"eye: sector_deg must be one of {_SECTORS}, got {p['sector_deg']!r}")
@@ -117,7 +118,8 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
                  sclera_thickness_equator: float = 0.4, sclera_thickness_pole: float = 1.0,
                  cornea_thickness: float = 0.53, choroid_thickness: float = 0.25, retina_thickness: float = 0.25,
                  optic_nerve_diameter: float = 3.5, optic_nerve_length: float = 3.0, detachment: dict | None = None,
-                 refine: int = 1, n_circ: int | None = None, sector_deg: float = 360.0) -> EyeMesh:
+                 refine: int = 1, n_circ: int | None = None, sector_deg: float = 360.0,
+                 wall_layers: int = 1) -> EyeMesh:
     """The eye mesh as numpy arrays (see :func:`build_eye` for the parameters).
 
     Returns:
@@ -244,6 +246,9 @@ def build_eye(**parameters) -> dict:
         refine: 1 gives 9,820 hexahedra (the seed's eye had 9,862); 2 doubles the elements in every
             direction (78,560).
         n_circ: sectors of the full circle (default 40 * refine), a multiple of 8.
+        wall_layers: multiplies the elements through the wall (sclera and cornea 2, choroid 1,
+            retina 1, times ``refine``), the rest of the mesh as it is: 2 or 3 with a larger
+            ``n_circ`` gives a fine eye whose wall elements keep their shape.
         sector_deg: 360 (whole eye), 180 or 90 (a wedge with the cut planes "cut_0" at azimuth 0
             and "cut_1" at ``sector_deg``, for models symmetric about them).
 
@@ -284,6 +289,7 @@ EYE_OPTIONS = {
     "optic_nerve_diameter": 3.5, "optic_nerve_length": 3.0,
     "refine": dict(type=int, default=1, help="2 doubles the elements in every direction"),
     "n_circ": dict(type=int, default=None, help="sectors of the full circle"),
+    "wall_layers": dict(type=int, default=1, help="multiplies the elements through the wall"),
     "sector_deg": dict(type=float, default=360.0, choices=_SECTORS),
 }
 main = builder_main(_build_from_cli, "eyeball_fenicsx.meshing.builders.eye", __doc__, **EYE_OPTIONS,

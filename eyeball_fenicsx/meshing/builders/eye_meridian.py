@@ -155,7 +155,7 @@ class Meridian:
         self.z_nerve_end = -(self.Ro + self.elongation) - p["optic_nerve_length"]
         self._place_lens(corneal_sag)
         self.rho_lens = LENS_DIAMETER / 2
-        r = self.p["refine"]
+        self.wall = r = self.p["refine"] * self.p["wall_layers"]  # multiplies the layers through the wall
         self.fractions = np.concatenate([
             np.linspace(0.0, p["choroid_thickness"], CHOROID_LAYERS * r + 1),
             np.linspace(p["choroid_thickness"], p["choroid_thickness"] + p["retina_thickness"],
@@ -225,7 +225,7 @@ class Meridian:
 
     def shell_row(self, s, j):
         point, normal = self.outer(s)
-        layers = SCLERA_LAYERS * self.p["refine"]
+        layers = SCLERA_LAYERS * self.wall
         return point + (j / layers * self.shell_thickness(s))[..., None] * normal
 
     def inner_row(self, s, j):

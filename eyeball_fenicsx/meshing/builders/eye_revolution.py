@@ -152,8 +152,8 @@ class _Assembly:
 def assemble_eye(m: Meridian, n_circ: int, sector_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Assemble the whole eye from the meridian ``m``: nodes, hexahedra and region per hexahedron."""
     r = m.p["refine"]
-    ns, ni = SCLERA_LAYERS * r, len(m.fractions) - 1
-    nch = CHOROID_LAYERS * r
+    ns, ni = SCLERA_LAYERS * m.wall, len(m.fractions) - 1
+    nch = CHOROID_LAYERS * m.wall
     parts = _Assembly(n_circ, sector_deg, r)
     s = m.columns
     mid = 0.5 * (s[1:] + s[:-1])
