@@ -20,10 +20,10 @@ nodes, the incidences, scales and mirrors of its corners' normals, and the thick
 
 **Newton iterations.** The received segments' patch nodes take their displacements from their
 owners through one PETSc scatter (built after each search), so that a rank reads only the
-master nodes it may touch; nothing of the rest of the surface reaches it. This is the
-bounding-box exchange of parallel contact codes (e.g. the "ghosting by bounding boxes" of
-Sandia's ACME, Brown et al., Sandia report SAND2001-3470, and the rank-box search of
-LIGGGHTS/MOOSE's ``PenetrationLocator``).
+master nodes it may touch; nothing of the rest of the surface reaches it. This is the global
+search of parallel contact codes by processor bounding boxes: each rank ghosts the remote
+surface that may reach its own, so memory and traffic grow with the contact zone a rank sees,
+not with the surface.
 """
 from __future__ import annotations
 
