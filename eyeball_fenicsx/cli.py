@@ -1,6 +1,8 @@
-"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [--resume] [PETSc options]``, and
-``eyeball-fenicsx sweep SCENE.toml --parameter P --values V... [--parameter Q --values W...]
-[--range R LOW HIGH]... --out DIR [--resume]`` (scene/sweep.py).
+"""Command line: ``eyeball-fenicsx run SCENE.toml --out DIR [--resume] [--linear-solver NAME] [PETSc
+options]``, and ``eyeball-fenicsx sweep SCENE.toml --parameter P --values V... [--parameter Q --values
+W...] [--range R LOW HIGH]... --out DIR [--resume] [--linear-solver NAME]`` (scene/sweep.py).
+``--linear-solver`` (mumps, mumps-blr, iterative: system/linear_solvers.py) replaces the scene's
+``[solver] linear``.
 
 Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is invalid (or a
 command-line option is unknown, or the checkpoint to resume is damaged or another scene's);
@@ -21,6 +23,7 @@ from petsc4py import PETSc
 
 from .errors import ConvergenceError, Interrupted, OutputError, SceneError
 from .output.console import print_on_rank0
+from .system.settings import LINEAR_SOLVERS
 
 INTERRUPTED = 4  # the exit code of a run a signal stopped
 UNWRITABLE = 5  # the exit code of a run that could not write its output folder
@@ -71,6 +74,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("scene")
     run.add_argument("--out", required=True, help="output folder (summary.json, fields.xdmf, checkpoint/)")
     run.add_argument("--resume", action="store_true", help="continue from the checkpoint in the output folder")
+    _linear_solver_option(run)
     sweep = commands.add_parser("sweep", help="run a scene over a grid of parameter values, with bands over "
                                 "ranges of constants (CSV + PNG)",
                                 usage="eyeball-fenicsx sweep SCENE --parameter P --values V [V ...] [--parameter Q "
@@ -87,7 +91,13 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.png, one folder a run)")
     sweep.add_argument("--resume", action="store_true", help="skip the runs that are done, resume the one that "
                        "was stopped")
+    _linear_solver_option(sweep)
     return parser
+
+
+def _linear_solver_option(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--linear-solver", choices=LINEAR_SOLVERS, help="the linear solver of the Newton steps, "
+                         "instead of the scene's [solver] linear (README: which solver when)")
 
 
 def _sweep(args: argparse.Namespace) -> None:
@@ -97,7 +107,7 @@ def _sweep(args: argparse.Namespace) -> None:
                          "give each --parameter its --values")
     from .scene.sweep import run_sweep
     run_sweep(args.scene, list(zip(args.parameter, args.values)), args.out, resume=args.resume,
-              ranges=args.range)
+              ranges=args.range, linear=args.linear_solver)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -110,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
             _sweep(args)
             return 0
         from .scene.loader import load_scene
-        scene = load_scene(args.scene)
+        scene = load_scene(args.scene, linear=args.linear_solver)
         try:
             scene.run(args.out, resume=args.resume)
         except SceneError as error:  # found while building (probes, cavities) or resuming: say which file

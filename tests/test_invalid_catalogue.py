@@ -343,6 +343,9 @@ CASES = {
     "step-empty-list": ("step = []\n" + SOLID, ["scene.toml: step = [] gives no step"]),  # fixed: ran as one step
     "solver-growth-below-one": (SOLID + "[solver]\ngrowth = 0.5\n",  # fixed: named no file
                                 ["[solver]", "growth must be at least 1", "0.5"]),
+    "solver-unknown-linear": (SOLID + '[solver]\nlinear = "cholmod"\n',
+                              ["[solver]", "linear = 'cholmod' is not a linear solver", "'mumps-blr'"]),
+    "solver-linear-not-a-string": (SOLID + '[solver]\nlinear = 3\n', ["[solver]", "linear", "3"]),
     "solver-unknown-element": (SOLID + '[solver]\nelement = "Q5P4"\n',  # fixed: named no table
                                ["[solver]", "unknown element 'Q5P4'", "'Q1P0'"]),
     "solver-element-of-another-cell": (SOLID + '[solver]\nelement = "P2P0"\n',  # fixed: ran as Q2P0

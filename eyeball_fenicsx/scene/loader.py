@@ -13,7 +13,7 @@ Extensions beyond the contract (documented in README.md):
   ``file``: the mesh is built in memory;
 * ``[[step]]`` tables (``name``, ``increments``) and a ``step = "<name>"`` key on every load,
   cavity and contact: it ramps in that step and is held after it (default: the first step);
-* ``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``;
+* ``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``, ``linear``;
 * ``[[force]]`` with ``point`` instead of ``surface`` (the node nearest to the point);
 * ``[[cavity]] algorithm = "new" | "previous"``, ``pressurize = true`` (fill the cavity to
   its ``initial_pressure`` in its step: the eye brought to its IOP) and ``surface`` as a list
@@ -47,6 +47,7 @@ Extensions beyond the contract (documented in README.md):
   sclera bite ``width / 2`` from the buckle's centre line to the buckle's top edge; they are
   tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``).
 """
+import dataclasses
 import os
 import tomllib
 from collections.abc import Callable, Iterable, Mapping
@@ -73,12 +74,15 @@ TABLES: dict[str, Callable[[Reading], None]] = {
     "solver": solid.read_solver, "mesh": solid.read_mesh}
 
 
-def load_scene(path: str, comm: MPI.Comm = MPI.COMM_WORLD, overrides: Mapping[str, Any] | None = None) -> Scene:
+def load_scene(path: str, comm: MPI.Comm = MPI.COMM_WORLD, overrides: Mapping[str, Any] | None = None,
+               linear: str | None = None) -> Scene:
     """Read and check a scene TOML file, load its mesh and return the Scene.
 
     Args:
         overrides: {dotted path: value} replacing entries of the file (``"mesh.n_circ"``),
             as a sweep does (overrides.py).
+        linear: the linear solver (``[solver] linear``) instead of the file's, if given: the
+            command line's ``--linear-solver``.
     """
     data = parsed_scene(path, overrides or {})
     for key, value in (overrides or {}).items():
@@ -87,6 +91,8 @@ def load_scene(path: str, comm: MPI.Comm = MPI.COMM_WORLD, overrides: Mapping[st
     for read in TABLES.values():
         read(reading)
     _check_against_mesh(reading)
+    if linear is not None:
+        reading.settings = dataclasses.replace(reading.settings, linear=linear)
     return Scene(reading.name, reading.mesh, reading.materials, reading.features, reading.probes, reading.steps,
                  reading.settings, reading.element, observers=[*reading.observers, RunReport()])
 

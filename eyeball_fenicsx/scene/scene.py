@@ -112,7 +112,7 @@ class Scene:
         self.fingerprint  # noqa: B018 (taken now: of the scene as given, before its features are set up)
         self.solid = MixedSolid(self.mesh, self.materials, self.element)
         self.problem = Problem(self.solid, self.features)
-        self.newton = NewtonSolver(self.problem)
+        self.newton = NewtonSolver(self.problem, linear=self.solver.linear)
         self.reports = [Probes(self.probes), FeatureReports()]
         for observer in [*self.reports, *self.observers]:
             observer.setup(self.solid, self.problem)

@@ -138,11 +138,12 @@ def read_probe(reading: Reading) -> None:
 
 
 def read_solver(reading: Reading) -> None:
-    """``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``."""
-    t = reading.table("solver", {"increments", "max_cutbacks", "growth", "predictor", "element"})
+    """``[solver]``: ``increments``, ``max_cutbacks``, ``growth``, ``predictor``, ``element``, ``linear``."""
+    t = reading.table("solver", {"increments", "max_cutbacks", "growth", "predictor", "element", "linear"})
     given = {key: t.get(key, kind) for key, kind in
-             (("increments", "integer"), ("max_cutbacks", "integer"), ("growth", "positive"), ("predictor", "flag"))}
-    with t.located():  # the settings' own checks: growth >= 1
+             (("increments", "integer"), ("max_cutbacks", "integer"), ("growth", "positive"), ("predictor", "flag"),
+              ("linear", "string"))}
+    with t.located():  # the settings' own checks: growth >= 1, a known linear solver
         reading.settings = SolverSettings(**{key: value for key, value in given.items() if value is not None})
     reading.element = t.get("element", "string")
     if reading.element is not None and reading.element not in ELEMENTS:

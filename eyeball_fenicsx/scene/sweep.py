@@ -40,12 +40,13 @@ from .sweep_plan import Plan, Variant, plan_sweep
 
 def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mapping[str, Sequence[Any]],
               out_dir: str, comm: MPI.Comm = MPI.COMM_WORLD, resume: bool = False,
-              ranges: Sequence[tuple[str, Any, Any]] = ()) -> list[dict[str, Any]]:
+              ranges: Sequence[tuple[str, Any, Any]] = (), linear: str | None = None) -> list[dict[str, Any]]:
     """Run the variants; write sweep.csv, sweep.png (and bands.csv); return sweep.csv's rows.
 
     Args:
         grid: [(parameter, values)] or {parameter: values}: the grid is every combination.
         ranges: [(parameter, low, high)]: each grid point also runs at the box's corners.
+        linear: the linear solver of every run instead of the scene's (``load_scene``).
 
     Raises:
         SceneError: before any variant runs, if an input is invalid (sweep_plan.plan_sweep), a
@@ -56,7 +57,7 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
     done, stale = _done(out_dir, plan, comm) if resume else (set(), set())
     for variant in variants:
         if variant.folder not in done:
-            _load(plan, variant, comm)  # checked, then released
+            _load(plan, variant, comm, linear)  # checked, then released
             gc.collect()
     write_json_atomic(os.path.join(out_dir, "sweep.json"), plan.record(), comm)
     rows: dict[str, dict[str, Any]] = {}
@@ -64,7 +65,8 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
     for variant in variants:
         out = os.path.join(out_dir, variant.folder)
         again = resume and variant.folder not in stale
-        summary, ok = (_summary(out), True) if variant.folder in done else _run(plan, variant, out, again, comm)
+        summary, ok = (_summary(out), True) if variant.folder in done else _run(plan, variant, out, again, comm,
+                                                                                       linear)
         final = summary["steps"][-1] if summary["steps"] else {}
         measured = {key: v for key, v in final.items() if key not in ("name", "increments")}
         rows[variant.folder] = {**points[variant.point], "ok": ok, "wall_s": summary["wall_s"],
@@ -85,17 +87,18 @@ def _located(variant: Variant, error: SceneError) -> SceneError:
     return SceneError(f"{error} (the sweep's variant {variant.folder}, {values})")
 
 
-def _load(plan: Plan, variant: Variant, comm: MPI.Comm):
+def _load(plan: Plan, variant: Variant, comm: MPI.Comm, linear: str | None):
     try:
-        return load_scene(plan.scene, comm, overrides=variant.overrides)
+        return load_scene(plan.scene, comm, overrides=variant.overrides, linear=linear)
     except SceneError as error:
         raise _located(variant, error) from None
 
 
-def _run(plan: Plan, variant: Variant, out: str, resume: bool, comm: MPI.Comm) -> tuple[dict, bool]:
+def _run(plan: Plan, variant: Variant, out: str, resume: bool, comm: MPI.Comm,
+         linear: str | None) -> tuple[dict, bool]:
     """Run one variant (with ``resume``, from its checkpoint if it has one): its summary, and
     whether it converged."""
-    scene = _load(plan, variant, comm)
+    scene = _load(plan, variant, comm, linear)
     try:
         return scene.run(out, resume=resume), True
     except ConvergenceError:

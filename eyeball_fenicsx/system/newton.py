@@ -1,12 +1,15 @@
-"""Newton (PETSc SNES, direct MUMPS solve) for one load increment (``stepping.py`` walks the load path).
+"""Newton (PETSc SNES) for one load increment (``stepping.py`` walks the load path); each Newton
+step solved by the scene's linear solver (``linear_solvers.py``: MUMPS, MUMPS with block low-rank
+compression, or a Krylov method with a field-split preconditioner).
 
 PETSc options live under the prefix ``eye_``: pass ``-eye_snes_monitor``,
 ``-eye_snes_linesearch_type basic``, ``-eye_mat_mumps_icntl_4 2`` ... on the command line.
 Our defaults are set only where the user gave nothing.
 
-The numeric factorization is almost all of the cost of a Newton iteration
-(``benchmarks/sphere_scaling.py``), so the solver spends as few as it can, without changing
-the converged answer (the residual tolerances decide it):
+With a direct solver (MUMPS), the numeric factorization is almost all of the cost of a Newton
+iteration (``benchmarks/sphere_scaling.py``), so the solver spends as few as it can, without
+changing the converged answer (the residual tolerances decide it); the iterative solver
+assembles a new tangent and preconditioner every step:
 
 * symmetric tangent -> MUMPS LDL^T (``pc_type cholesky``): half the flops of LU. Used when every
   feature with hand-assembled terms declares ``symmetric_tangent = True``
@@ -51,6 +54,7 @@ import contextlib
 import numpy as np
 from petsc4py import PETSc
 
+from .linear_solvers import linear_solver
 from .problem import Problem
 from .settings import SolverSettings
 
@@ -62,9 +66,6 @@ DEFAULT_OPTIONS = {
     "snes_atol": 1e-11,
     "snes_stol": 0.0,
     "snes_max_it": 12,
-    "ksp_type": "preonly",
-    "pc_factor_mat_solver_type": "mumps",
-    "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
 }
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
@@ -79,13 +80,14 @@ _REASONS = {value: name for name, value in vars(PETSc.SNES.ConvergedReason).item
 class NewtonSolver:
     """SNES on a ``Problem``, solving one load increment at a time."""
 
-    def __init__(self, problem: Problem, prefix: str = PREFIX):
+    def __init__(self, problem: Problem, prefix: str = PREFIX, linear: str = "mumps"):
         self.problem = problem
+        self.linear = linear_solver(linear, problem)
         opts = PETSc.Options()
-        defaults = dict(DEFAULT_OPTIONS)
+        defaults = dict(DEFAULT_OPTIONS, **self.linear.options)
         defaults.update(problem.newton_options)  # an active set's own (contact: ``contact/policy.py``)
         self.prefix, self.defaults = prefix, defaults
-        self.choose_factorization = not opts.hasName(prefix + "pc_type")  # else the user's
+        self.choose_factorization = self.linear.direct and not opts.hasName(prefix + "pc_type")  # else the user's
         self.divergence = PETSc.Options(prefix).getReal("snes_divergence_tolerance", 1e4)
         self.reuse_contraction = SolverSettings.reuse_contraction
         self.reused = False  # the last Newton step reused a factorization
@@ -96,11 +98,14 @@ class NewtonSolver:
         snes.setJacobian(self._jacobian, problem.A)
         snes.setConvergenceTest(self._converged)
         snes.setLineSearchPreCheck(self._limit_step)
-        snes.getKSP().getPC().setType("lu")
+        if self.linear.direct:
+            snes.getKSP().getPC().setType("lu")
         self._set_from_options()
         self.residual_norms = []
         self.step_halvings = []
-        self.factorizations = 0
+        self.factorizations = 0  # new tangents (a factorization, or a new preconditioner)
+        self.krylov_iterations = 0  # of every solve so far
+        self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve
         snes.setMonitor(self._monitor)
 
     @contextlib.contextmanager
@@ -124,6 +129,7 @@ class NewtonSolver:
         with self._our_defaults():
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
+            self.linear.setup(self.snes.getKSP())
         self.max_tangents = self.snes.getTolerances()[3]
         self.snes.setTolerances(max_it=self.max_tangents + _CHORD_STEPS)
 
@@ -143,8 +149,8 @@ class NewtonSolver:
         norms = self.residual_norms
         # a tangent whose active set (contact) changed is never reused
         first = snes.getIterationNumber() == 0
-        self.reused = (first and self.chord_start) or (
-            not first and norms[-1] <= self.reuse_contraction * norms[-2] and not self.problem.tangent_outdated())
+        self.reused = self.linear.direct and ((first and self.chord_start) or (
+            not first and norms[-1] <= self.reuse_contraction * norms[-2] and not self.problem.tangent_outdated()))
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
@@ -275,6 +281,11 @@ class NewtonSolver:
         with self._our_defaults():  # MUMPS reads its options when it factorizes
             self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
+        ksp = self.snes.getKSP()
+        self.krylov_iterations += 0 if self.linear.direct else self.snes.getLinearSolveIterations()
+        self.memory_mb = self.linear.memory_mb(ksp)
+        if reason == _REASON.DIVERGED_LINEAR_SOLVE:
+            self.stopped = self.linear.krylov_failure(ksp)
         norm = self.residual_norms[-1] if self.residual_norms else float("nan")
         converged = reason > 0 and np.isfinite(norm)
         return converged, self.snes.getIterationNumber(), norm, self.stopped or _REASONS.get(reason, str(reason))

@@ -1,11 +1,13 @@
 """The settings of the load stepping: system/stepping.py walks each step of the load path with
 them (its docstring states the step-size rule and the cut-back they tune), and system/newton.py
-takes its default factorization reuse from them.
+takes its default factorization reuse and its linear solver from them.
 """
 import dataclasses
 
 from .. import checks
 from ..errors import SceneError
+
+LINEAR_SOLVERS = ("mumps", "mumps-blr", "iterative")  # system/linear_solvers.py: what each is, when to use it
 
 
 @dataclasses.dataclass
@@ -24,6 +26,8 @@ class SolverSettings:
         predictor: extrapolate the previous increment to start Newton (secant predictor).
         reuse_contraction: reuse the factorization for the next Newton step after a step that
             multiplied the residual norm by at most this factor (0: a new tangent every step).
+        linear: the linear solver of the Newton steps, one of ``LINEAR_SOLVERS``
+            (system/linear_solvers.py); they give the same converged answer.
     """
 
     increments: int = 2
@@ -32,8 +36,10 @@ class SolverSettings:
     easy_iterations: int = 5
     predictor: bool = True
     reuse_contraction: float = 0.1
+    linear: str = "mumps"
 
     def __post_init__(self) -> None:
         checks.integer(self.increments, "solver.increments")
+        checks.known(self.linear, LINEAR_SOLVERS, "linear", "linear solver", "linear solvers", in_order=True)
         if checks.number(self.growth, "solver.growth") < 1:
             raise SceneError(f"solver.growth must be at least 1 (1: equal increments), got {self.growth!r}")

@@ -60,6 +60,8 @@ class Increment:
     residual_norm: float
     wall_s: float
     factorizations: int  # new tangents factorized; the other iterations reused one
+    krylov_iterations: int  # of the iterative linear solver (0 for MUMPS)
+    mumps_memory_MB: int  # MUMPS' INFOG(21) after the increment: the most one process used (0: iterative)
 
 
 @dataclasses.dataclass
@@ -150,7 +152,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     """Newton on the increment ending at ``load_factor``, then again while a feature augments
     (the augmented Lagrangian of contact), from the last factorization. Returns (converged,
     the increment's ``Increment``, Newton's reason)."""
-    start, factorized = time.perf_counter(), newton.factorizations
+    start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
     problem.set_increment(load_factor >= 1.0 - 1e-12)
     converged, its, norm, reason = newton.solve(x)
@@ -167,7 +169,8 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
             converged, (norm, reason) = True, before
     settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
-    return converged, Increment(load_factor, its, norm, wall, factorized), reason
+    increment = Increment(load_factor, its, norm, wall, factorized, newton.krylov_iterations - krylov, newton.memory_mb)
+    return converged, increment, reason
 
 
 def _restore_or_give_up(problem: Problem, newton: NewtonSolver, settings: SolverSettings, x: PETSc.Vec,

@@ -1,0 +1,166 @@
+"""The linear solver of each Newton step (``[solver] linear``, ``--linear-solver``): three ways to
+solve the bordered system of ``problem.py``, the same converged answer (Newton's residual
+tolerances decide it, ``newton.py``).
+
+* ``"mumps"`` (the default): a sparse direct factorization, MUMPS (Amestoy, Duff, L'Excellent and
+  Koster, SIAM J. Matrix Anal. Appl. 23:15, 2001) through PETSc's ``pc_type lu`` / ``cholesky``;
+  Newton chooses LDL^T for a symmetric tangent and reuses factorizations (chord steps).
+* ``"mumps-blr"``: the same factorization with block low-rank compression of the frontal matrices
+  (MUMPS ``ICNTL(35) = 2``: BLR in the factorization and the solve; Amestoy, Buttari, L'Excellent
+  and Mary, ACM TOMS 45:2, 2019): off-diagonal blocks of the fronts are kept as low-rank products
+  up to the dropping parameter ``CNTL(7)``, relative to the matrix's norm. The factors, so the
+  memory and the flops, shrink on large fronts (fine 3D meshes); the solve is then exact to about
+  ``CNTL(7)``, an inexact Newton step whose error the next Newton step removes, so the converged
+  answer is the residual tolerances', as with the chord steps.
+* ``"iterative"``: Newton-Krylov. FGMRES (right preconditioned, so its tolerance is on the true
+  residual; Saad, SIAM J. Sci. Comput. 14:461, 1993) with a Schur-complement field split
+  (PETSc ``PCFIELDSPLIT``, full factorization; Murphy, Golub and Wathen, SIAM J. Sci. Comput.
+  21:1969, 2000) of the unknowns into the displacements u and the rest: the element pressures
+  (one per hexahedron) and the bordered global unknowns (one liquid pressure per cavity, on the
+  last rank). The displacement block is solved by one V-cycle of smoothed-aggregation algebraic
+  multigrid (PETSc GAMG; Vanek, Mandel and Brezina, Computing 56:179, 1996) given the six
+  rigid-body modes of the displacement dofs as its near-null space (composed on the split's index
+  set, which PCFIELDSPLIT hands to the block). The Schur complement S = A11 - A10 A00^-1 A01 is
+  preconditioned by the diagonal of A11 - A10 diag(A00)^-1 A01 (``schur_precondition selfp``
+  with Jacobi), which for an incompressible element is its volume over a shear stiffness: a
+  pressure mass matrix scaled by 1 / mu, the Stokes preconditioner of Elman, Silvester and Wathen
+  (Finite Elements and Fast Iterative Solvers, OUP 2005, ch. 8), and a rough scalar for a cavity
+  (a rank-one error GMRES pays about one iteration for). The contact, suture and liquid terms are
+  in the assembled matrix, so in the blocks. The Krylov tolerance is ``ITERATIVE_RTOL`` of the
+  residual, so each Newton step contracts the residual by that factor at least, and the last one
+  lands far below Newton's tolerance, as a direct solve's does. A Krylov solve that does not reach
+  it ends the Newton solve with a message that says so (``krylov_failure``).
+  Limitation: on the Q1P0 eye (thin layers, an element pair that is not inf-sup stable) neither
+  this Schur approximation nor GAMG on the displacement block converges in ``ksp_max_it``
+  iterations (README, "Which linear solver when"), so this path fails there, with that message.
+
+All options are PETSc's, under the scene's prefix ``eye_`` and only where the user gave none:
+``-eye_ksp_monitor``, ``-eye_fieldsplit_0_pc_type hypre``, ``-eye_mat_mumps_cntl_7 1e-6`` ...
+"""
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from .problem import Problem
+from .settings import LINEAR_SOLVERS
+
+ITERATIVE_RTOL = 1e-8  # each Krylov solve cuts the linear residual by this factor
+_MUMPS = {
+    "ksp_type": "preonly",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_14": 80,  # room for the delayed pivots of the saddle-point system
+}
+_BLR = {
+    "mat_mumps_icntl_35": 2,  # BLR in the factorization and the solve
+    "mat_mumps_cntl_7": 1e-8,  # the BLR dropping parameter
+}
+_ITERATIVE = {
+    "ksp_type": "fgmres",
+    "ksp_rtol": ITERATIVE_RTOL,
+    "ksp_atol": 0.0,
+    "ksp_max_it": 400,
+    "ksp_gmres_restart": 200,
+    "pc_type": "fieldsplit",
+    "pc_fieldsplit_type": "schur",
+    "pc_fieldsplit_schur_fact_type": "full",
+    "pc_fieldsplit_schur_precondition": "selfp",
+    "fieldsplit_0_ksp_type": "preonly",
+    "fieldsplit_0_pc_type": "gamg",
+    "fieldsplit_1_ksp_type": "preonly",
+    "fieldsplit_1_pc_type": "jacobi",
+}
+
+
+class LinearSolver:
+    """A linear solver's PETSc defaults, its set-up of the PC and what it reports per Newton solve.
+
+    ``direct``: a factorization, which Newton may reuse (chord steps) and choose (LU or LDL^T)."""
+
+    direct = True
+
+    def __init__(self, name: str, problem: Problem):
+        self.name = name
+        self.problem = problem
+        self.options = dict(_MUMPS, **(_BLR if name == "mumps-blr" else {}))
+
+    def setup(self, ksp: PETSc.KSP) -> None:
+        """After the options are read and whenever the KSP was reset (a new matrix)."""
+        if ksp.getPC().getType() not in ("lu", "cholesky"):
+            ksp.getPC().setType("lu")
+
+    def memory_mb(self, ksp: PETSc.KSP) -> int:
+        """MUMPS' INFOG(21), the largest memory (MB) one process used in the last factorization,
+        or 0 if there was none."""
+        pc = ksp.getPC()
+        if pc.getType() not in ("lu", "cholesky") or pc.getFactorSolverType() != "mumps":
+            return 0
+        try:
+            return int(pc.getFactorMatrix().getMumpsInfog(21))
+        except PETSc.Error:  # not factorized yet
+            return 0
+
+    def krylov_failure(self, ksp: PETSc.KSP) -> str | None:
+        return None
+
+
+class IterativeSolver(LinearSolver):
+    """Newton-Krylov with the field split of the module docstring."""
+
+    direct = False
+
+    def __init__(self, name: str, problem: Problem):
+        self.name = name
+        self.problem = problem
+        self.options = dict(_ITERATIVE)
+        self.displacements, self.rest, coordinates = self._split(problem)
+        self.displacements.setBlockSize(3)
+        coords = PETSc.Vec().createMPI((coordinates.size, PETSc.DECIDE), bsize=3, comm=problem.comm)
+        coords.array[:] = coordinates.ravel()
+        self.near_null_space = PETSc.NullSpace().createRigidBody(coords)
+        coords.destroy()
+        self.displacements.compose("nearnullspace", self.near_null_space)  # PCFIELDSPLIT gives it to A00
+
+    @staticmethod
+    def _split(problem: Problem) -> tuple[PETSc.IS, PETSc.IS, np.ndarray]:
+        """(global rows of the owned displacement dofs, node by node, x y z; global rows of the
+        rest: the owned pressures and border rows; the displacement nodes' coordinates)."""
+        V, dofs = problem.solid.W.sub(0).collapse()
+        dofs = np.asarray(dofs, dtype=np.int64).reshape(-1, 3)
+        owned = np.flatnonzero(dofs[:, 0] < problem.n_owned)
+        owned = owned[np.argsort(dofs[owned, 0])]  # PCFIELDSPLIT wants the rows sorted
+        nodes = V.tabulate_dof_coordinates()[owned]
+        u_rows = dofs[owned].ravel()
+        assert np.all(np.diff(u_rows) > 0), "a node's displacement dofs are not consecutive"
+        rest = np.setdiff1d(np.arange(problem.n_owned), u_rows)
+        border = problem.n_global + np.arange(problem.n_extra_local)
+        comm = problem.comm
+        u_is = PETSc.IS().createGeneral((problem.offset + u_rows).astype(PETSc.IntType), comm=comm)
+        rest_is = PETSc.IS().createGeneral(np.concatenate([problem.offset + rest, border]).astype(PETSc.IntType),
+                                           comm=comm)
+        return u_is, rest_is, nodes
+
+    def setup(self, ksp: PETSc.KSP) -> None:
+        pc = ksp.getPC()
+        if pc.getType() == "fieldsplit":
+            pc.setFieldSplitIS(("0", self.displacements), ("1", self.rest))  # options: -eye_fieldsplit_0_...
+
+    def memory_mb(self, ksp: PETSc.KSP) -> int:
+        return 0
+
+    def krylov_failure(self, ksp: PETSc.KSP) -> str | None:
+        """Why the last Krylov solve failed, in words, or None if it converged."""
+        reason = ksp.getConvergedReason()
+        if reason >= 0:
+            return None
+        names = {value: name for name, value in vars(PETSc.KSP.ConvergedReason).items() if not name.startswith("_")}
+        return (f"the iterative linear solver did not converge ({names.get(reason, reason)} after "
+                f"{ksp.getIterationNumber()} Krylov iterations, the linear residual {ksp.getResidualNorm():.2e}); "
+                "pass -eye_ksp_monitor to see it, or use the direct solver (--linear-solver mumps)")
+
+
+def linear_solver(name: str, problem: Problem) -> LinearSolver:
+    """The linear solver named ``name`` (one of ``LINEAR_SOLVERS``) for the problem (collective)."""
+    if name not in LINEAR_SOLVERS:
+        raise ValueError(f"unknown linear solver {name!r}: choose one of {LINEAR_SOLVERS}")
+    return IterativeSolver(name, problem) if name == "iterative" else LinearSolver(name, problem)
