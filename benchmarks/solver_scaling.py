@@ -149,8 +149,11 @@ def agreement(rows):
 
 
 def project(rows, ranks):
-    """Power laws t = a N^b and m = c N^d fitted per solver to the rows on ``ranks`` ranks, and
-    their values at TARGET_UNKNOWNS (the assumptions are printed with the table)."""
+    """Power laws t = a N^b and m = c N^d (the process' peak and MUMPS' own) fitted per solver to
+    the rows on ``ranks`` ranks, and their values at TARGET_UNKNOWNS: an extrapolation over two
+    decades that assumes the same Newton iterations and the same nested-dissection fill (memory
+    about N^(4/3), flops about N^2 for a 3D mesh: George 1973) at every size; README says what it
+    gives on a cluster."""
     fits = {}
     for solver in sorted({r["solver"] for r in rows}):
         mine = [r for r in rows if r["solver"] == solver and r["ranks"] == ranks and r["ok"]]
@@ -158,7 +161,9 @@ def project(rows, ranks):
             continue
         n = np.log([r["unknowns"] for r in mine])
         fit = {}
-        for key in ("wall_s", "peak_memory_MB"):
+        for key in ("wall_s", "peak_memory_MB", "mumps_memory_MB"):
+            if not all(r[key] for r in mine):
+                continue
             b, a = np.polyfit(n, np.log([r[key] for r in mine]), 1)
             fit[key] = {"exponent": float(b), "at_target": float(np.exp(a) * TARGET_UNKNOWNS ** b)}
         fits[solver] = fit
@@ -212,6 +217,7 @@ def main():
     parser.add_argument("--ranks", type=int, nargs="+", default=[2])
     parser.add_argument("--steps", nargs="+", default=["pressurize"], help="the scene's steps to run, from its first")
     parser.add_argument("--out", default=os.path.join(RESULTS, "solver_scaling"), help="results, without suffix")
+    parser.add_argument("--append", action="store_true", help="add the rows to those already in OUT.json")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--solver", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -221,6 +227,9 @@ def main():
     from provenance import machine_record
 
     rows = []
+    if args.append:
+        with open(args.out + ".json") as f:
+            rows = json.load(f)
     for n_circ in args.n_circ:
         for ranks in args.ranks:
             for solver in args.solvers:
