@@ -211,7 +211,8 @@ def plot(rows, path):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--n-circ", type=int, nargs="+", default=[40, 56, 80, 112])
+    parser.add_argument("--n-circ", type=int, nargs="*", default=[40, 56, 80, 112],
+                        help="none, with --append: redraw the table, plot and projection from OUT.json")
     parser.add_argument("--solvers", nargs="+", default=["mumps", "mumps-blr"],
                         help="also: iterative (it does not converge on the eye: README, 'Which linear solver when')")
     parser.add_argument("--ranks", type=int, nargs="+", default=[2])
@@ -236,7 +237,8 @@ def main():
                 rows.append(run_one(n_circ, solver, ranks, args.steps))
                 print(table(rows[-1:]).splitlines()[-1], flush=True)
     agreement(rows)
-    projection = {"target_unknowns": TARGET_UNKNOWNS, "fits_by_ranks": {str(r): project(rows, r) for r in args.ranks},
+    ranks = sorted({row["ranks"] for row in rows})
+    projection = {"target_unknowns": TARGET_UNKNOWNS, "fits_by_ranks": {str(r): project(rows, r) for r in ranks},
                   "run": machine_record(steps=args.steps)}
     with open(args.out + ".json", "w") as f:
         json.dump(rows, f, indent=1)
