@@ -120,12 +120,12 @@ def main():
                               expected - 0.15, expected + 0.15,
                               f"Lanchares et al. 2016 (FE): {expected:.2f}, within 0.15",
                               "the trend with width differs from Lanchares' model"))
-    for name, value in (("IOP after tightening (mmHg)", shipped["tighten"]["iop_mmHg"]),
-                        ("IOP after drainage (mmHg)", shipped["drain"]["iop_mmHg"]),
-                        ("reattached fraction after drainage", shipped["drain"]["reattached_fraction"])):
-        figures.append({"figure": name, "model": value, "range": None, "inside": None,
+    for label, value in (("IOP after tightening (mmHg)", shipped["tighten"]["iop_mmHg"]),
+                         ("IOP after drainage (mmHg)", shipped["drain"]["iop_mmHg"]),
+                         ("reattached fraction after drainage", shipped["drain"]["reattached_fraction"])):
+        figures.append({"figure": label, "model": value, "range": None, "inside": None,
                         "source": "no published figure for this step (intraoperative peaks reach 210 mmHg "
-                                  "during depression and cryopexy: Gardner et al. 1993)" if "IOP" in name else
+                                  "during depression and cryopexy: Gardner et al. 1993)" if "IOP" in label else
                                   "the issue's aim: at least 0.9", "why_not": ""})
 
     segmental, wall = run("segmental_buckle.toml", os.path.join(args.out, "segmental"),
