@@ -110,8 +110,7 @@ class IterativeSolver(LinearSolver):
     direct = False
 
     def __init__(self, name: str, problem: Problem):
-        self.name = name
-        self.problem = problem
+        super().__init__(name, problem)
         self.options = dict(_ITERATIVE)
         self.displacements, self.rest, coordinates = self._split(problem)
         self.displacements.setBlockSize(3)
