@@ -32,3 +32,19 @@ def sphere_mesh():
 def shared_tmp(tmp_path):
     """A temporary folder that is the same on every rank (rank 0's)."""
     return MPI.COMM_WORLD.bcast(str(tmp_path), root=0)
+
+
+def on_rank0(task, *args, **kwargs):
+    """Run ``task(*args, **kwargs)`` on rank 0 only (it writes files, starts a process, checks a
+    gathered array) and give every rank its result; if it fails, every rank fails, so that no rank
+    is left waiting in a collective."""
+    result = failure = None
+    if MPI.COMM_WORLD.rank == 0:
+        try:
+            result = task(*args, **kwargs)
+        except Exception as error:
+            failure = repr(error)
+    result, failure = MPI.COMM_WORLD.bcast((result, failure), root=0)
+    if failure:
+        raise RuntimeError(f"on rank 0: {failure}")
+    return result

@@ -12,6 +12,7 @@ import dolfinx
 import numpy as np
 import pytest
 import ufl
+from conftest import on_rank0
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
@@ -49,11 +50,6 @@ def tired():
 @pytest.fixture(scope="module")
 def segmental():
     return built_mesh(buckled_eye.build_buckled_eye, COMM, **SEGMENTAL)
-
-
-def _on_rank0(check):
-    """Evaluate ``check()`` on rank 0 and return its verdict on every rank."""
-    return COMM.bcast(check() if COMM.rank == 0 else None, root=0)
 
 
 def _gather(ids, coordinates):
@@ -107,9 +103,9 @@ def _globe(data):
     """The radius of the sclera's outer surface and the polar angle of the limbus, measured on the mesh (the
     limbus is the front ring of "sclera_outer"); on every rank."""
     nodes = _surface_nodes(data, "sclera_outer")
-    radii = _on_rank0(lambda: np.linalg.norm(nodes, axis=1))
+    radii = on_rank0(lambda: np.linalg.norm(nodes, axis=1))
     assert np.ptp(radii) < 1e-9  # the sclera's outer surface is a sphere
-    return radii.mean(), _on_rank0(lambda: _polar(nodes)[0].max())
+    return radii.mean(), on_rank0(lambda: _polar(nodes)[0].max())
 
 
 def test_regions_and_surfaces(encircled, tired, segmental):
@@ -179,7 +175,7 @@ def _clearance(data, inner, outer):
         result = np.concatenate(result)
         to_nodes, _ = cKDTree(outer_nodes).query(nodes)
         return result.min(), result.max(), to_nodes.min()
-    return _on_rank0(distances)
+    return on_rank0(distances)
 
 
 @pytest.mark.parametrize("model, pairs", [
@@ -192,7 +188,7 @@ def test_buckle_shares_no_node_with_the_eye(model, pairs, request):
     eye_nodes = [_region_nodes(data, tissue)[0] for tissue in TISSUES]
     for body, under in pairs:
         body_nodes, _ = _region_nodes(data, body)
-        assert _on_rank0(lambda: not np.intersect1d(body_nodes, np.concatenate(eye_nodes)).size)
+        assert on_rank0(lambda: not np.intersect1d(body_nodes, np.concatenate(eye_nodes)).size)
         # The body's inner surface is `gap` clear of the surface under it: its nodes are that far from the
         # facets under them, plus the sag of the facets' meridional chords (< 0.8^2 / 8 R = 0.007 mm), and no
         # node of the other surface is nearer.
@@ -202,7 +198,7 @@ def test_buckle_shares_no_node_with_the_eye(model, pairs, request):
     if model == "tired":
         band, _ = _region_nodes(data, "band")
         tire, _ = _region_nodes(data, "tire")
-        assert _on_rank0(lambda: not np.intersect1d(band, tire).size)
+        assert on_rank0(lambda: not np.intersect1d(band, tire).size)
 
 
 def test_band_volume_is_the_spherical_zone(encircled, tired):
@@ -239,7 +235,7 @@ def test_band_position_and_width(model, request):
     data = request.getfixturevalue(model)
     radius, limbus = _globe(data)
     nodes = _surface_nodes(data, "band_inner")
-    measured = _on_rank0(lambda: _polar(nodes)[0])
+    measured = on_rank0(lambda: _polar(nodes)[0])
     centre = 0.5 * (measured.min() + measured.max())
     inner_radius = radius + (GAP if model == "encircled" else 2 * GAP + 1.0)
     # Behind the limbus by band_position, measured along the sclera's outer surface, within half an element
@@ -255,7 +251,7 @@ def test_band_position_and_width(model, request):
 
 def test_segmental_tire_extent(segmental):
     nodes = _surface_nodes(segmental, "tire_outer")
-    azimuths = _on_rank0(lambda: np.degrees(_polar(nodes)[1]))
+    azimuths = on_rank0(lambda: np.degrees(_polar(nodes)[1]))
     assert azimuths.min() == pytest.approx(30.0 - 45.0, abs=1e-9)
     assert azimuths.max() == pytest.approx(30.0 + 45.0, abs=1e-9)
     area = COMM.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ufl.ds(
@@ -289,7 +285,7 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
         def distances():
             return (cKDTree(sclera).query(bite)[0], cKDTree(outer).query(knot)[0],
                     cKDTree(sides[suture["side"]]).query(knot)[0], cKDTree(inner).query(hold)[0])
-        to_sclera, to_outer, to_side, to_inner = _on_rank0(distances)
+        to_sclera, to_outer, to_side, to_inner = on_rank0(distances)
         assert to_sclera < 0.45  # within half an element of a node of "sclera_outer"
         assert to_outer < 1e-9 and to_side < 1e-9  # a node of the top edge on the suture's side
         # the loop holds the node of the base under it (seen from the sclera's centre)
@@ -322,7 +318,7 @@ def test_cavity_walls_are_closed(encircled, tired):
                 if whole:
                     return bool(np.all(counts == 2))
                 return bool(np.all(counts[~open_] == 2) and np.all(np.abs(middles[first][open_][:, 1]) < 1e-9))
-            assert _on_rank0(check), surface
+            assert on_rank0(check), surface
 
 
 @pytest.mark.parametrize("options, fragment", [

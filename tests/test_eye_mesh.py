@@ -11,6 +11,7 @@ import dolfinx
 import numpy as np
 import pytest
 import ufl
+from conftest import on_rank0
 from mpi4py import MPI
 
 from eyeball_fenicsx.errors import SceneError
@@ -77,11 +78,6 @@ def _edge_incidences(data, surface):
     return middles[first], counts
 
 
-def _on_rank0(check):
-    """Evaluate ``check()`` on rank 0 and return its verdict on every rank."""
-    return COMM.bcast(check() if COMM.rank == 0 else None, root=0)
-
-
 def test_tissues_and_surfaces(whole_eye, half_eye):
     assert set(whole_eye.regions) == TISSUES
     assert set(whole_eye.surfaces) == SURFACES
@@ -114,15 +110,15 @@ def test_cavity_walls_are_closed(whole_eye, half_eye):
     for surface in ("vitreous_wall", "anterior_chamber_wall"):
         # Whole eye: every edge of a cavity wall is shared by exactly two of its facets.
         _, counts = _edge_incidences(whole_eye, surface)
-        assert _on_rank0(lambda: bool(np.all(counts == 2))), surface
+        assert on_rank0(lambda: bool(np.all(counts == 2))), surface
         # Hence -(1/3) integral of x . n is the enclosed volume, whatever the origin: moving the
         # mesh changes it by -(1/3) t . integral of n, and n integrates to zero on a closed surface.
         volume = _enclosed_volume(whole_eye, surface)
         assert _enclosed_volume(whole_eye, surface, shift=(3.0, -2.0, 5.0)) == pytest.approx(volume, rel=1e-10)
         # Half eye: the walls are open only where the symmetry plane y = 0 cuts them.
         middles, counts = _edge_incidences(half_eye, surface)
-        assert _on_rank0(lambda: bool(np.all((counts == 2) | ((counts == 1) & (np.abs(middles[:, 1]) < 1e-9)))))
-        assert _on_rank0(lambda: bool(np.any(counts == 1)))
+        assert on_rank0(lambda: bool(np.all((counts == 2) | ((counts == 1) & (np.abs(middles[:, 1]) < 1e-9)))))
+        assert on_rank0(lambda: bool(np.any(counts == 1)))
 
 
 def test_cavity_volumes_and_axial_length(whole_eye, half_eye):
@@ -141,7 +137,7 @@ def test_cavity_volumes_and_axial_length(whole_eye, half_eye):
     x = whole_eye.mesh.geometry.x
     apex = COMM.allreduce(x[:, 2].max(), op=MPI.MAX)
     _, wall = _surface_nodes(whole_eye, "vitreous_wall")
-    posterior = _on_rank0(lambda: float(wall[np.linalg.norm(wall[..., :2], axis=-1) < 1e-9][:, 2].min()))
+    posterior = on_rank0(lambda: float(wall[np.linalg.norm(wall[..., :2], axis=-1) < 1e-9][:, 2].min()))
     assert apex - posterior == pytest.approx(24.0, abs=0.1)
 
 
@@ -152,7 +148,7 @@ def test_detachment(half_eye):
     areas = {}
     for surface in ("retina_outer", "choroid_inner"):
         _, corners = _surface_nodes(half_eye, surface)
-        radius = _on_rank0(lambda: float(np.linalg.norm(corners, axis=-1).mean()))
+        radius = on_rank0(lambda: float(np.linalg.norm(corners, axis=-1).mean()))
         areas[surface] = _integrate(half_eye, 1.0, surface)
         assert areas[surface] == pytest.approx(cap * radius**2, rel=0.03), surface
     # The subretinal gap encloses area x gap, less what the ring of elements at the rim loses as the
@@ -219,4 +215,4 @@ def test_cli_and_section_picture(tmp_path):
     assert {"retina_outer", "choroid_inner", "cut_0", "cut_1"} <= set(data.surfaces)
     picture = folder / "section.png"
     eye_section_png(data, picture)
-    assert _on_rank0(lambda: picture.stat().st_size > 10_000)
+    assert on_rank0(lambda: picture.stat().st_size > 10_000)

@@ -15,7 +15,7 @@ import tomllib
 import gmsh
 import numpy as np
 import pytest
-from conftest import REPO
+from conftest import REPO, on_rank0
 from mpi4py import MPI
 from scipy.optimize import minimize_scalar
 
@@ -38,21 +38,6 @@ ROLLERS = ('[[dirichlet]]\nsurface = "x0"\nx = 0.0\n[[dirichlet]]\nsurface = "y0
 OCTANT = '[mesh]\nbuilder = "sphere_octant"\nn = 2\nlayers = 1\n[materials.wall]\nmodel = "neo-hooke"\nc10 = 0.5\n'
 SYMMETRY_PLANES = ''.join(f'[[dirichlet]]\nsurface = "sym_{a}"\n{a} = 0.0\n' for a in "xyz")  # an octant's
 CAVITY = '[[cavity]]\nname = "vitreous"\nsurface = "inner"\nbulk_modulus = 2083.3\n'
-
-
-def on_rank0(task, *args, **kwargs):
-    """Run a task on rank 0 only (it writes files, starts a process) and give every rank its
-    result; if it fails, every rank fails, so that no rank is left waiting in a collective."""
-    result = failure = None
-    if COMM.rank == 0:
-        try:
-            result = task(*args, **kwargs)
-        except Exception as error:
-            failure = repr(error)
-    result, failure = COMM.bcast((result, failure), root=0)
-    if failure:
-        raise RuntimeError(f"on rank 0: {failure}")
-    return result
 
 
 def write_text(path, text):

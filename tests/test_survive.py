@@ -17,7 +17,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import REPO
+from conftest import REPO, on_rank0
 from mpi4py import MPI
 from test_scenes import SYMMETRY_PLANES
 
@@ -64,20 +64,6 @@ point = [0.0, 0.0, 1.0]
 increments = 6
 growth = 1.0
 """
-
-
-def on_rank0(task, *args):
-    """Run a task on rank 0 only and give every rank its result; if it fails, every rank fails."""
-    result = failure = None
-    if COMM.rank == 0:
-        try:
-            result = task(*args)
-        except Exception as error:
-            failure = repr(error)
-    result, failure = COMM.bcast((result, failure), root=0)
-    if failure:
-        raise RuntimeError(f"on rank 0: {failure}")
-    return result
 
 
 def write_scene(folder, text=SCENE, name="scene.toml"):
