@@ -203,20 +203,27 @@ def test_bucket_search_finds_exactly_the_brute_force_pairs():
 
 
 # -- (c) rigid plane --------------------------------------------------------------------------
+def _pressed_block(mesh, c10, d, **penalty):
+    """The unit cube of neo-Hookean c10 on rollers (x0, y0, z0) pressed by a rigid plane moved
+    down by d onto its top z1, in two increments: (its contact report, the top's stretch)."""
+    plane = RigidContact("press", "z1", "plane", point=[0, 0, 1], normal=[0, 0, -1], displacement=[0, 0, -d],
+                         **penalty)
+    scene = ef.Scene("plane", mesh, {"solid": ef.NeoHooke(c10)},
+                     features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
+                               ef.Dirichlet("z0", {"z": 0.0}), plane],
+                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
+    final = scene.run()["steps"][-1]
+    return final, 1 + final["probes"]["top"][2]
+
+
 def test_rigid_plane_compresses_a_block_homogeneously(block_mesh):
     """A rigid plane moved down by d on the unit cube (rollers on x0, y0, z0): uniaxial
     compression, nominal stress P = 2 c10 (lambda - lambda^-2), lambda = 1 - d: the augmented
     Lagrangian leaves no penetration to speak of (it stops when its updates move the surface
     by less than 1e-4 of the top elements' depth, 1/3)."""
     c10, d = 0.5, 0.2
-    plane = RigidContact("press", "z1", "plane", point=[0, 0, 1], normal=[0, 0, -1], displacement=[0, 0, -d])
-    scene = ef.Scene("plane", block_mesh((2, 2, 3)), {"solid": ef.NeoHooke(c10)},
-                     features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
-                               ef.Dirichlet("z0", {"z": 0.0}), plane],
-                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
-    final = scene.run()["steps"][-1]
+    final, stretch = _pressed_block(block_mesh((2, 2, 3)), c10, d)
     contact = final["contact"]["press"]
-    stretch = 1 + final["probes"]["top"][2]
     assert contact["force"][2] == pytest.approx(uniaxial_stress(c10, stretch), rel=1e-8)  # exact: homogeneous
     assert stretch == pytest.approx(1 - d + contact["max_penetration"], rel=1e-10)
     assert contact["max_penetration"] < 1e-4 / 3
@@ -341,15 +348,8 @@ def test_penalties_over_five_decades_converge(block_mesh, penalty):
     to speak of, and the stress is the uniaxial closed form P = 2 c10 (lambda - lambda^-2) at
     lambda = 1 - d + g."""
     c10, d = 0.5, 0.1
-    plane = RigidContact("press", "z1", "plane", penalty=penalty, point=[0, 0, 1], normal=[0, 0, -1],
-                         displacement=[0, 0, -d])
-    scene = ef.Scene("decades", block_mesh((1, 1, 2)), {"solid": ef.NeoHooke(c10)},
-                     features=[ef.Dirichlet("x0", {"x": 0.0}), ef.Dirichlet("y0", {"y": 0.0}),
-                               ef.Dirichlet("z0", {"z": 0.0}), plane],
-                     probes={"top": [1.0, 1.0, 1.0]}, solver=ef.SolverSettings(increments=2))
-    final = scene.run()["steps"][-1]
+    final, stretch = _pressed_block(block_mesh((1, 1, 2)), c10, d, penalty=penalty)
     contact = final["contact"]["press"]
-    stretch = 1 + final["probes"]["top"][2]
     assert contact["max_penetration"] < 1e-4 / 2  # of the element's depth, 1/2
     assert stretch == pytest.approx(1 - d + contact["max_penetration"], rel=1e-8)
     assert contact["force"][2] == pytest.approx(uniaxial_stress(c10, stretch), rel=1e-8)
