@@ -42,9 +42,11 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from .al_preconditioner import ALPHA, AugmentedLagrangian, pressure_weights
 from .problem import Problem
 from .settings import LINEAR_SOLVERS
 
+PREFIX = "eye_"  # newton.py's
 ITERATIVE_RTOL = 1e-8  # each Krylov solve cuts the linear residual by this factor
 _MUMPS = {
     "ksp_type": "preonly",
@@ -60,15 +62,7 @@ _ITERATIVE = {
     "ksp_rtol": ITERATIVE_RTOL,
     "ksp_atol": 0.0,
     "ksp_max_it": 400,
-    "ksp_gmres_restart": 200,
-    "pc_type": "fieldsplit",
-    "pc_fieldsplit_type": "schur",
-    "pc_fieldsplit_schur_fact_type": "full",
-    "pc_fieldsplit_schur_precondition": "selfp",
-    "fieldsplit_0_ksp_type": "preonly",
-    "fieldsplit_0_pc_type": "gamg",
-    "fieldsplit_1_ksp_type": "preonly",
-    "fieldsplit_1_pc_type": "jacobi",
+    "ksp_gmres_restart": 100,
 }
 
 
@@ -105,47 +99,48 @@ class LinearSolver:
 
 
 class IterativeSolver(LinearSolver):
-    """Newton-Krylov with the field split of the module docstring."""
+    """Newton-Krylov: FGMRES with the augmented-Lagrangian preconditioner (``al_preconditioner.py``)."""
 
     direct = False
 
     def __init__(self, name: str, problem: Problem):
         super().__init__(name, problem)
         self.options = dict(_ITERATIVE)
-        self.displacements, self.rest, coordinates = self._split(problem)
-        self.displacements.setBlockSize(3)
+        fields, coordinates = self._split(problem)
         coords = PETSc.Vec().createMPI((coordinates.size, PETSc.DECIDE), bsize=3, comm=problem.comm)
         coords.array[:] = coordinates.ravel()
         self.near_null_space = PETSc.NullSpace().createRigidBody(coords)
         coords.destroy()
-        self.displacements.compose("nearnullspace", self.near_null_space)  # PCFIELDSPLIT gives it to A00
+        alpha = PETSc.Options(PREFIX).getReal("al_alpha", ALPHA)
+        weights = pressure_weights(problem.solid, problem.n_owned, alpha)[self.pressure_rows]
+        self.preconditioner = AugmentedLagrangian(fields, weights, self.near_null_space, problem.last)
 
-    @staticmethod
-    def _split(problem: Problem) -> tuple[PETSc.IS, PETSc.IS, np.ndarray]:
-        """(global rows of the owned displacement dofs, node by node, x y z; global rows of the
-        rest: the owned pressures and border rows; the displacement nodes' coordinates)."""
+    def _split(self, problem: Problem) -> tuple[tuple[PETSc.IS, PETSc.IS, PETSc.IS], np.ndarray]:
+        """((global rows of the owned displacement dofs, node by node, x y z; of the owned
+        pressures; of the border rows), the displacement nodes' coordinates). Keeps the local
+        pressure rows (``pressure_rows``)."""
         V, dofs = problem.solid.W.sub(0).collapse()
         dofs = np.asarray(dofs, dtype=np.int64).reshape(-1, 3)
         owned = np.flatnonzero(dofs[:, 0] < problem.n_owned)
-        owned = owned[np.argsort(dofs[owned, 0])]  # PCFIELDSPLIT wants the rows sorted
+        owned = owned[np.argsort(dofs[owned, 0])]  # sorted rows, as PETSc's sub-matrices want
         nodes = V.tabulate_dof_coordinates()[owned]
         u_rows = dofs[owned].ravel()
         assert np.all(np.diff(u_rows) > 0), "a node's displacement dofs are not consecutive"
-        rest = np.setdiff1d(np.arange(problem.n_owned), u_rows)
+        self.pressure_rows = np.setdiff1d(np.arange(problem.n_owned), u_rows)
         border = problem.n_global + np.arange(problem.n_extra_local)
-        comm = problem.comm
-        u_is = PETSc.IS().createGeneral((problem.offset + u_rows).astype(PETSc.IntType), comm=comm)
-        rest_is = PETSc.IS().createGeneral(np.concatenate([problem.offset + rest, border]).astype(PETSc.IntType),
-                                           comm=comm)
-        return u_is, rest_is, nodes
+        rows = (problem.offset + u_rows, problem.offset + self.pressure_rows, border)
+        return tuple(PETSc.IS().createGeneral(r.astype(PETSc.IntType), comm=problem.comm) for r in rows), nodes
 
     def setup(self, ksp: PETSc.KSP) -> None:
-        pc = ksp.getPC()
-        if pc.getType() == "fieldsplit":
-            pc.setFieldSplitIS(("0", self.displacements), ("1", self.rest))  # options: -eye_fieldsplit_0_...
+        """The preconditioner, unless the user chose another (``-eye_pc_type``)."""
+        if not PETSc.Options().hasName(ksp.getOptionsPrefix() + "pc_type"):
+            ksp.getPC().setType("python")
+            ksp.getPC().setPythonContext(self.preconditioner)
 
     def memory_mb(self, ksp: PETSc.KSP) -> int:
-        return 0
+        """MUMPS' INFOG(21) of the displacement block's factorization, or 0."""
+        solver = self.preconditioner.ksp
+        return super().memory_mb(solver) if solver is not None and ksp.getPC().getType() == "python" else 0
 
     def krylov_failure(self, ksp: PETSc.KSP) -> str | None:
         """Why the last Krylov solve failed, in words, or None if it converged."""
