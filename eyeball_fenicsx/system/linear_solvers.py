@@ -69,9 +69,12 @@ _ITERATIVE = {
 class LinearSolver:
     """A linear solver's PETSc defaults, its set-up of the PC and what it reports per Newton solve.
 
-    ``direct``: a factorization, which Newton may reuse (chord steps) and choose (LU or LDL^T)."""
+    ``direct``: a factorization, which Newton may choose (LU or LDL^T); ``reuses_tangents``: Newton
+    may keep a tangent and what the PC made of it for chord steps (a factorization, or the
+    iterative path's preconditioner, with which the Krylov solve takes a chord step too)."""
 
     direct = True
+    reuses_tangents = True
 
     def __init__(self, name: str, problem: Problem):
         self.name = name
