@@ -13,40 +13,34 @@ tolerances decide it, ``newton.py``).
   ``CNTL(7)``, an inexact Newton step whose error the next Newton step removes, so the converged
   answer is the residual tolerances', as with the chord steps.
 * ``"iterative"``: Newton-Krylov. FGMRES (right preconditioned, so its tolerance is on the true
-  residual; Saad, SIAM J. Sci. Comput. 14:461, 1993) with a Schur-complement field split
-  (PETSc ``PCFIELDSPLIT``, full factorization; Murphy, Golub and Wathen, SIAM J. Sci. Comput.
-  21:1969, 2000) of the unknowns into the displacements u and the rest: the element pressures
-  (one per hexahedron) and the bordered global unknowns (one liquid pressure per cavity, on the
-  last rank). The displacement block is solved by one V-cycle of smoothed-aggregation algebraic
-  multigrid (PETSc GAMG; Vanek, Mandel and Brezina, Computing 56:179, 1996) given the six
-  rigid-body modes of the displacement dofs as its near-null space (composed on the split's index
-  set, which PCFIELDSPLIT hands to the block). The Schur complement S = A11 - A10 A00^-1 A01 is
-  preconditioned by the diagonal of A11 - A10 diag(A00)^-1 A01 (``schur_precondition selfp``
-  with Jacobi), which for an incompressible element is its volume over a shear stiffness: a
-  pressure mass matrix scaled by 1 / mu, the Stokes preconditioner of Elman, Silvester and Wathen
-  (Finite Elements and Fast Iterative Solvers, OUP 2005, ch. 8), and a rough scalar for a cavity
-  (a rank-one error GMRES pays about one iteration for). The contact, suture and liquid terms are
-  in the assembled matrix, so in the blocks. The Krylov tolerance is ``ITERATIVE_RTOL`` of the
-  residual, so each Newton step contracts the residual by that factor at least, and the last one
-  lands far below Newton's tolerance, as a direct solve's does. A Krylov solve that does not reach
-  it ends the Newton solve with a message that says so (``krylov_failure``).
-  Limitation: on the Q1P0 eye (thin layers, an element pair that is not inf-sup stable) neither
-  this Schur approximation nor GAMG on the displacement block converges in ``ksp_max_it``
-  iterations (README, "Which linear solver when"), so this path fails there, with that message.
+  residual; Saad, SIAM J. Sci. Comput. 14:461, 1993) with the augmented-Lagrangian block
+  preconditioner of ``al_preconditioner.py``: the displacement block penalized element by element
+  by alpha times the element's shear modulus, factorized by MUMPS' LDL^T, and diagonal pressure
+  and cavity blocks. Newton keeps a tangent and its preconditioner for chord steps as it keeps a
+  factorization, so both paths take the same Newton steps and increments. The Krylov tolerance
+  is ``ITERATIVE_RTOL`` of the residual, so each Newton step contracts the residual by that factor
+  at least, and the last one lands far below Newton's tolerance, as a direct solve's does. A
+  Krylov solve that does not reach it ends the Newton solve with a message that says so
+  (``krylov_failure``).
+  Limitation: the displacement block is still factorized, about half of the memory of MUMPS'
+  factorization of the whole matrix, but each Krylov iteration (some 30 to 60 per Newton step on
+  the eye) is a triangular solve with those factors, so the path is slower than MUMPS at every
+  size measured (README, "Which linear solver when"); algebraic multigrid on the block
+  (``-eye_al_u_pc_type gamg``) needs 60 to 460 CG iterations per solve on the coarse Q1P0 eye's
+  block (alpha 1 to 100; the eye has thin layers and a stiffness contrast of 1e4).
 
 All options are PETSc's, under the scene's prefix ``eye_`` and only where the user gave none:
-``-eye_ksp_monitor``, ``-eye_fieldsplit_0_pc_type hypre``, ``-eye_mat_mumps_cntl_7 1e-6`` ...
+``-eye_ksp_monitor``, ``-eye_al_alpha 50``, ``-eye_al_u_pc_type gamg``, ``-eye_mat_mumps_cntl_7 1e-6`` ...
 """
 from __future__ import annotations
 
 import numpy as np
 from petsc4py import PETSc
 
-from .al_preconditioner import ALPHA, AugmentedLagrangian, pressure_weights
+from .al_preconditioner import AugmentedLagrangian, pressure_weights
 from .problem import Problem
 from .settings import LINEAR_SOLVERS
 
-PREFIX = "eye_"  # newton.py's
 ITERATIVE_RTOL = 1e-8  # each Krylov solve cuts the linear residual by this factor
 _MUMPS = {
     "ksp_type": "preonly",
@@ -114,8 +108,7 @@ class IterativeSolver(LinearSolver):
         coords.array[:] = coordinates.ravel()
         self.near_null_space = PETSc.NullSpace().createRigidBody(coords)
         coords.destroy()
-        alpha = PETSc.Options(PREFIX).getReal("al_alpha", ALPHA)
-        weights = pressure_weights(problem.solid, problem.n_owned, alpha)[self.pressure_rows]
+        weights = pressure_weights(problem.solid, problem.n_owned)[self.pressure_rows]
         self.preconditioner = AugmentedLagrangian(fields, weights, self.near_null_space, problem.last)
 
     def _split(self, problem: Problem) -> tuple[tuple[PETSc.IS, PETSc.IS, PETSc.IS], np.ndarray]:
