@@ -26,19 +26,21 @@ are those of the augmented system, while the Newton matrix and residual stay the
 The weight is per element: gamma_e = alpha mu_e with mu_e the element's initial shear modulus
 (its material's ``shear_modulus``), W = gamma_e / M_e (M_e the pressure mass matrix' diagonal,
 the element's volume for P0), so every tissue's K_g is compressible elasticity with
-lambda / mu = alpha, whatever the stiffness contrast between tissues (1e4 on the eye): one
-global gamma makes the soft tissues' K_g nearly incompressible (locking) and the stiff ones'
-barely augmented. A compressible region has W = 0 (its pressure is idle, B = 0). alpha trades
-the outer iterations against the conditioning of K_g: ``ALPHA`` (``-eye_al_alpha``; on one
-tangent of the default eye with K_g factorized, alpha 10, 30, 50, 100, 200, 300, 1000 took 77, 50,
-42, 34, 32, 42, 212 FGMRES iterations).
+lambda / mu = alpha, whatever the stiffness contrast between tissues (1e4 on the eye), and alpha
+is a number without units. With K_g factorized, one global gamma of alpha MPa takes as many
+iterations (on one tangent of the default eye: 76, 34, 212 for 10, 100, 1000 MPa); what makes
+the iteration converge at all is T (without it, none of these converged in 400 iterations).
+A compressible region has W = 0 (its pressure is idle, B = 0). alpha trades the outer
+iterations against the conditioning of K_g: ``ALPHA`` (``-eye_al_alpha``; on one tangent of the
+default eye with K_g factorized, alpha 10, 30, 50, 100, 200, 300, 1000 took 77, 50, 42, 34, 32,
+42, 212 FGMRES iterations).
 
 K_g is solved by a sparse factorization, MUMPS' LDL^T of its upper triangle (K_g is symmetric
 up to the contact and filling terms; a preconditioner need not be exact): about half of the
 memory of the LU factorization of A with its delayed pivots, as the README's measurements show.
 Its sub-solver is a PETSc KSP with the prefix ``eye_al_u_`` (``-eye_al_u_pc_type gamg`` gives
-algebraic multigrid, with the rigid-body near-null space set on K_g; on the Q1P0 eye it needs
-hundreds of iterations per solve, README "Which linear solver when"). The cavity's Schur
+algebraic multigrid, with the rigid-body near-null space set on K_g; on the coarse Q1P0 eye it
+needs 60 to 460 CG iterations per solve, README "Which linear solver when"). The cavity's Schur
 complement s costs m solves with K_g per new tangent.
 """
 from __future__ import annotations
