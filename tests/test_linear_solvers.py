@@ -46,11 +46,13 @@ def test_blr_predicts_what_mumps_predicts(mumps):
 
 
 def test_iterative_path_on_the_coarse_eye_predicts_what_mumps_predicts(mumps):
-    """Nine tissues with a shear-stiffness contrast of 1e4, thin layers, two bordered cavities."""
+    """The seed's eight tissues (shear moduli 1e4 apart), thin layers, two bordered cavities."""
     eye, increments = _eye("iterative")
     _agree(eye, mumps[0])
-    # Krylov iterations were counted, and MUMPS factorized only the augmented displacement block
-    assert all(i["krylov_iterations"] > 0 and 0 < i["mumps_memory_MB"] for i in increments)
+    # Krylov iterations were counted; the factorization of the displacement block alone took
+    # less memory than MUMPS' of the whole matrix
+    assert all(i["krylov_iterations"] > 0 for i in increments)
+    assert 0 < max(i["mumps_memory_MB"] for i in increments) < max(i["mumps_memory_MB"] for i in mumps[1])
 
 
 def test_iterative_path_on_the_thick_sphere_predicts_what_mumps_predicts():
