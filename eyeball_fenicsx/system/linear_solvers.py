@@ -23,7 +23,7 @@ tolerances decide it, ``newton.py``).
   Krylov solve that does not reach it ends the Newton solve with a message that says so
   (``krylov_failure``).
   Limitation: the displacement block is still factorized, about half of the memory of MUMPS'
-  factorization of the whole matrix, but each Krylov iteration (some 30 to 60 per Newton step on
+  factorization of the whole matrix, but each Krylov iteration (40 to 71 per Newton step on
   the eye) is a triangular solve with those factors, so the path is slower than MUMPS at every
   size measured (README, "Which linear solver when"); algebraic multigrid on the block
   (``-eye_al_u_pc_type gamg``) needs 60 to 460 CG iterations per solve on the coarse Q1P0 eye's
