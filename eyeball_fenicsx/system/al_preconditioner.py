@@ -4,7 +4,7 @@ The bordered Newton matrix (``problem.py``), its unknowns split into the displac
 element pressures p and the global (cavity) unknowns c:
 
     A = [ K   B^T  b ]      K: the displacement block (contact, sutures, liquid loads in it)
-        [ B   -C   0 ]      B: the incompressibility rows; C: -p^2 / (2 mu) of a compressible
+        [ B   -C   0 ]      B: the incompressibility rows; C: from -p^2 / (2 mu) in a compressible
         [ r^T  0   d ]      region (there B = 0); b, r, d: the cavities' border (r = 0 while
                             a cavity fills).
 
@@ -15,10 +15,11 @@ diagonal weight W >= 0 on the pressure rows, the system T A x = T f, T = [[I, B^
 a penalty on the volume change of each element. For the block upper-triangular
 
     P = [ K_g  B^T  b ]
-        [ 0    S_p  0 ]     S_p = -diag(C) - W^-1,   s = d - r^T K_g^-1 b (m x m, dense),
+        [ 0    S_p  0 ]     S_p = -diag(C) - W^+,   s = d - r^T K_g^-1 b (m x m, dense),
         [ 0    0    s ]
 
-the Schur complement of T A is S_p up to O(1 / gamma) (Benzi and Olshanskii), so the
+(W^+: 1 / W where W > 0, else 0) the Schur complement of T A is S_p up to O(1 / gamma) (Benzi
+and Olshanskii), so the
 preconditioned operator's spectrum clusters as gamma grows. This module applies y = P^-1 T x
 as the right preconditioner of FGMRES: A P^-1 T is similar to T A P^-1, so the iteration counts
 are those of the augmented system, while the Newton matrix and residual stay the scene's.
@@ -26,8 +27,8 @@ are those of the augmented system, while the Newton matrix and residual stay the
 The weight is per element: gamma_e = alpha mu_e with mu_e the element's initial shear modulus
 (its material's ``shear_modulus``), W = gamma_e / M_e (M_e the pressure mass matrix' diagonal,
 the element's volume for P0), so every tissue's K_g is compressible elasticity with
-lambda / mu = alpha, whatever the stiffness contrast between tissues (1e4 on the eye), and alpha
-is a number without units. With K_g factorized, one global gamma of alpha MPa takes as many
+lambda / mu = alpha, whatever the stiffness contrast between tissues, and alpha is a number
+without units. With K_g factorized, one global gamma of alpha MPa takes as many
 iterations (on one tangent of the default eye: 76, 34, 212 for 10, 100, 1000 MPa); what makes
 the iteration converge at all is T (without it, none of these converged in 400 iterations).
 A compressible region has W = 0 (its pressure is idle, B = 0). alpha trades the outer
