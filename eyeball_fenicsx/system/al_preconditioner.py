@@ -19,8 +19,7 @@ a penalty on the volume change of each element. For the block upper-triangular
         [ 0    0    s ]
 
 (W^+: 1 / W where W > 0, else 0) the Schur complement of T A is S_p up to O(1 / gamma) (Benzi
-and Olshanskii), so the
-preconditioned operator's spectrum clusters as gamma grows. This module applies y = P^-1 T x
+and Olshanskii), so the preconditioned operator's spectrum clusters as gamma grows. This module applies y = P^-1 T x
 as the right preconditioner of FGMRES: A P^-1 T is similar to T A P^-1, so the iteration counts
 are those of the augmented system, while the Newton matrix and residual stay the scene's.
 
