@@ -6,10 +6,9 @@ through the wall in step), each with each linear solver of ``[solver] linear``:
 
 * ``mumps``: one MUMPS factorization per new tangent (the default);
 * ``mumps-blr``: MUMPS with block low-rank compression of its fronts;
-* ``iterative``: Newton-Krylov, FGMRES preconditioned by a Schur-complement field split with
-  algebraic multigrid on the displacements (system/linear_solvers.py); not run by default: it
-  does not converge on the eye (README, "Which linear solver when"), and its failing rows cost
-  ten cut-backs of 400 Krylov iterations each.
+* ``iterative``: Newton-Krylov, FGMRES preconditioned by the augmented-Lagrangian block
+  preconditioner (system/al_preconditioner.py: the displacement block penalized element by
+  element and factorized, diagonal pressure blocks).
 
 Each run is its own ``mpirun`` (ranks 1, 2 or more; this machine has 2 cores, so more ranks
 are oversubscribed and said to be), so that its peak memory is its own. A run solves the
@@ -33,7 +32,7 @@ difference, expected below 1e-6: the Newton tolerances, not the linear solver, d
 answer).
 
     .venv/bin/python3 benchmarks/solver_scaling.py [--n-circ 40 56 80 112] \\
-        [--solvers mumps mumps-blr] [--ranks 2] [--steps pressurize]
+        [--solvers mumps mumps-blr iterative] [--ranks 2] [--steps pressurize]
 
 A projection to a 10-million-unknown eye on a cluster is fitted to the rows (power laws in
 the unknowns, per solver; ``project``), with its assumptions printed beside it.
@@ -213,8 +212,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n-circ", type=int, nargs="*", default=[40, 56, 80, 112],
                         help="none, with --append: redraw the table, plot and projection from OUT.json")
-    parser.add_argument("--solvers", nargs="+", default=["mumps", "mumps-blr"],
-                        help="also: iterative (it does not converge on the eye: README, 'Which linear solver when')")
+    parser.add_argument("--solvers", nargs="+", default=["mumps", "mumps-blr", "iterative"])
     parser.add_argument("--ranks", type=int, nargs="+", default=[2])
     parser.add_argument("--steps", nargs="+", default=["pressurize"], help="the scene's steps to run, from its first")
     parser.add_argument("--out", default=os.path.join(RESULTS, "solver_scaling"), help="results, without suffix")

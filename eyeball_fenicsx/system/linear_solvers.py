@@ -13,35 +13,31 @@ tolerances decide it, ``newton.py``).
   ``CNTL(7)``, an inexact Newton step whose error the next Newton step removes, so the converged
   answer is the residual tolerances', as with the chord steps.
 * ``"iterative"``: Newton-Krylov. FGMRES (right preconditioned, so its tolerance is on the true
-  residual; Saad, SIAM J. Sci. Comput. 14:461, 1993) with a Schur-complement field split
-  (PETSc ``PCFIELDSPLIT``, full factorization; Murphy, Golub and Wathen, SIAM J. Sci. Comput.
-  21:1969, 2000) of the unknowns into the displacements u and the rest: the element pressures
-  (one per hexahedron) and the bordered global unknowns (one liquid pressure per cavity, on the
-  last rank). The displacement block is solved by one V-cycle of smoothed-aggregation algebraic
-  multigrid (PETSc GAMG; Vanek, Mandel and Brezina, Computing 56:179, 1996) given the six
-  rigid-body modes of the displacement dofs as its near-null space (composed on the split's index
-  set, which PCFIELDSPLIT hands to the block). The Schur complement S = A11 - A10 A00^-1 A01 is
-  preconditioned by the diagonal of A11 - A10 diag(A00)^-1 A01 (``schur_precondition selfp``
-  with Jacobi), which for an incompressible element is its volume over a shear stiffness: a
-  pressure mass matrix scaled by 1 / mu, the Stokes preconditioner of Elman, Silvester and Wathen
-  (Finite Elements and Fast Iterative Solvers, OUP 2005, ch. 8), and a rough scalar for a cavity
-  (a rank-one error GMRES pays about one iteration for). The contact, suture and liquid terms are
-  in the assembled matrix, so in the blocks. The Krylov tolerance is ``ITERATIVE_RTOL`` of the
-  residual, so each Newton step contracts the residual by that factor at least, and the last one
-  lands far below Newton's tolerance, as a direct solve's does. A Krylov solve that does not reach
-  it ends the Newton solve with a message that says so (``krylov_failure``).
-  Limitation: on the Q1P0 eye (thin layers, an element pair that is not inf-sup stable) neither
-  this Schur approximation nor GAMG on the displacement block converges in ``ksp_max_it``
-  iterations (README, "Which linear solver when"), so this path fails there, with that message.
+  residual; Saad, SIAM J. Sci. Comput. 14:461, 1993) with the augmented-Lagrangian block
+  preconditioner of ``al_preconditioner.py``: the displacement block penalized element by element
+  by alpha times the element's shear modulus, factorized by MUMPS' LDL^T, and diagonal pressure
+  and cavity blocks. Newton keeps a tangent and its preconditioner for chord steps as it keeps a
+  factorization, so both paths take the same Newton steps and increments. The Krylov tolerance
+  is ``ITERATIVE_RTOL`` of the residual, so each Newton step contracts the residual by that factor
+  at least, and the last one lands far below Newton's tolerance, as a direct solve's does. A
+  Krylov solve that does not reach it ends the Newton solve with a message that says so
+  (``krylov_failure``).
+  Limitation: the displacement block is still factorized, about half of the memory of MUMPS'
+  factorization of the whole matrix, but each Krylov iteration (40 to 71 per Newton step on
+  the eye) is a triangular solve with those factors, so the path is slower than MUMPS at every
+  size measured (README, "Which linear solver when"); algebraic multigrid on the block
+  (``-eye_al_u_pc_type gamg``) needs 60 to 460 CG iterations per solve on the coarse Q1P0 eye's
+  block (alpha 1 to 100; the eye has thin layers and a stiffness contrast of 1e4).
 
 All options are PETSc's, under the scene's prefix ``eye_`` and only where the user gave none:
-``-eye_ksp_monitor``, ``-eye_fieldsplit_0_pc_type hypre``, ``-eye_mat_mumps_cntl_7 1e-6`` ...
+``-eye_ksp_monitor``, ``-eye_al_alpha 50``, ``-eye_al_u_pc_type gamg``, ``-eye_mat_mumps_cntl_7 1e-6`` ...
 """
 from __future__ import annotations
 
 import numpy as np
 from petsc4py import PETSc
 
+from .al_preconditioner import AugmentedLagrangian, pressure_weights
 from .problem import Problem
 from .settings import LINEAR_SOLVERS
 
@@ -60,24 +56,19 @@ _ITERATIVE = {
     "ksp_rtol": ITERATIVE_RTOL,
     "ksp_atol": 0.0,
     "ksp_max_it": 400,
-    "ksp_gmres_restart": 200,
-    "pc_type": "fieldsplit",
-    "pc_fieldsplit_type": "schur",
-    "pc_fieldsplit_schur_fact_type": "full",
-    "pc_fieldsplit_schur_precondition": "selfp",
-    "fieldsplit_0_ksp_type": "preonly",
-    "fieldsplit_0_pc_type": "gamg",
-    "fieldsplit_1_ksp_type": "preonly",
-    "fieldsplit_1_pc_type": "jacobi",
+    "ksp_gmres_restart": 100,
 }
 
 
 class LinearSolver:
     """A linear solver's PETSc defaults, its set-up of the PC and what it reports per Newton solve.
 
-    ``direct``: a factorization, which Newton may reuse (chord steps) and choose (LU or LDL^T)."""
+    ``direct``: a factorization, which Newton may choose (LU or LDL^T); ``reuses_tangents``: Newton
+    may keep a tangent and what the PC made of it for chord steps (a factorization, or the
+    iterative path's preconditioner, with which the Krylov solve takes a chord step too)."""
 
     direct = True
+    reuses_tangents = True
 
     def __init__(self, name: str, problem: Problem):
         self.name = name
@@ -105,47 +96,47 @@ class LinearSolver:
 
 
 class IterativeSolver(LinearSolver):
-    """Newton-Krylov with the field split of the module docstring."""
+    """Newton-Krylov: FGMRES with the augmented-Lagrangian preconditioner (``al_preconditioner.py``)."""
 
     direct = False
 
     def __init__(self, name: str, problem: Problem):
         super().__init__(name, problem)
         self.options = dict(_ITERATIVE)
-        self.displacements, self.rest, coordinates = self._split(problem)
-        self.displacements.setBlockSize(3)
+        fields, coordinates = self._split(problem)
         coords = PETSc.Vec().createMPI((coordinates.size, PETSc.DECIDE), bsize=3, comm=problem.comm)
         coords.array[:] = coordinates.ravel()
         self.near_null_space = PETSc.NullSpace().createRigidBody(coords)
         coords.destroy()
-        self.displacements.compose("nearnullspace", self.near_null_space)  # PCFIELDSPLIT gives it to A00
+        weights = pressure_weights(problem.solid, problem.n_owned)[self.pressure_rows]
+        self.preconditioner = AugmentedLagrangian(fields, weights, self.near_null_space, problem.last)
 
-    @staticmethod
-    def _split(problem: Problem) -> tuple[PETSc.IS, PETSc.IS, np.ndarray]:
-        """(global rows of the owned displacement dofs, node by node, x y z; global rows of the
-        rest: the owned pressures and border rows; the displacement nodes' coordinates)."""
+    def _split(self, problem: Problem) -> tuple[tuple[PETSc.IS, PETSc.IS, PETSc.IS], np.ndarray]:
+        """((global rows of the owned displacement dofs, node by node, x y z; of the owned
+        pressures; of the border rows), the displacement nodes' coordinates). Keeps the local
+        pressure rows (``pressure_rows``)."""
         V, dofs = problem.solid.W.sub(0).collapse()
         dofs = np.asarray(dofs, dtype=np.int64).reshape(-1, 3)
         owned = np.flatnonzero(dofs[:, 0] < problem.n_owned)
-        owned = owned[np.argsort(dofs[owned, 0])]  # PCFIELDSPLIT wants the rows sorted
+        owned = owned[np.argsort(dofs[owned, 0])]  # sorted rows, as PETSc's sub-matrices want
         nodes = V.tabulate_dof_coordinates()[owned]
         u_rows = dofs[owned].ravel()
         assert np.all(np.diff(u_rows) > 0), "a node's displacement dofs are not consecutive"
-        rest = np.setdiff1d(np.arange(problem.n_owned), u_rows)
+        self.pressure_rows = np.setdiff1d(np.arange(problem.n_owned), u_rows)
         border = problem.n_global + np.arange(problem.n_extra_local)
-        comm = problem.comm
-        u_is = PETSc.IS().createGeneral((problem.offset + u_rows).astype(PETSc.IntType), comm=comm)
-        rest_is = PETSc.IS().createGeneral(np.concatenate([problem.offset + rest, border]).astype(PETSc.IntType),
-                                           comm=comm)
-        return u_is, rest_is, nodes
+        rows = (problem.offset + u_rows, problem.offset + self.pressure_rows, border)
+        return tuple(PETSc.IS().createGeneral(r.astype(PETSc.IntType), comm=problem.comm) for r in rows), nodes
 
     def setup(self, ksp: PETSc.KSP) -> None:
-        pc = ksp.getPC()
-        if pc.getType() == "fieldsplit":
-            pc.setFieldSplitIS(("0", self.displacements), ("1", self.rest))  # options: -eye_fieldsplit_0_...
+        """The preconditioner, unless the user chose another (``-eye_pc_type``)."""
+        if not PETSc.Options().hasName(ksp.getOptionsPrefix() + "pc_type"):
+            ksp.getPC().setType("python")
+            ksp.getPC().setPythonContext(self.preconditioner)
 
     def memory_mb(self, ksp: PETSc.KSP) -> int:
-        return 0
+        """MUMPS' INFOG(21) of the displacement block's factorization, or 0."""
+        solver = self.preconditioner.ksp
+        return super().memory_mb(solver) if solver is not None and ksp.getPC().getType() == "python" else 0
 
     def krylov_failure(self, ksp: PETSc.KSP) -> str | None:
         """Why the last Krylov solve failed, in words, or None if it converged."""

@@ -149,7 +149,7 @@ class NewtonSolver:
         norms = self.residual_norms
         # a tangent whose active set (contact) changed is never reused
         first = snes.getIterationNumber() == 0
-        self.reused = self.linear.direct and ((first and self.chord_start) or (
+        self.reused = self.linear.reuses_tangents and ((first and self.chord_start) or (
             not first and norms[-1] <= self.reuse_contraction * norms[-2] and not self.problem.tangent_outdated()))
         if self.reused:
             return
