@@ -94,6 +94,7 @@ class AugmentedLagrangian:
         self.last = last
         self.K_g = None
         self.ksp = None
+        self.work = None
 
     def setUp(self, pc: PETSc.PC) -> None:
         A, _ = pc.getOperators()
@@ -119,15 +120,16 @@ class AugmentedLagrangian:
         else:
             self.ksp.setOperators(self.K_g)
         self.ksp.setUp()
-        self.work = A.createVecLeft(), A.createVecLeft()
+        if self.work is None:
+            self.work = A.createVecLeft(), A.createVecLeft()
         self._cavity_schur(A, comm)
 
     def reset(self, pc: PETSc.PC) -> None:
-        """A new matrix (its pattern may differ): K_g and its factorization are made anew."""
-        for obj in (self.K_g, self.ksp):
+        """A new matrix (its pattern may differ): K_g, its factorization and the work vectors are made anew."""
+        for obj in (self.K_g, self.ksp, *(self.work or ())):
             if obj is not None:
                 obj.destroy()
-        self.K_g = self.ksp = None
+        self.K_g = self.ksp = self.work = None
 
     def _augment(self, A):
         """K_g = K + B^T W B, in place of the last one (its pattern: element couplings, K's)."""
