@@ -216,7 +216,8 @@ def main():
     parser.add_argument("--ranks", type=int, nargs="+", default=[2])
     parser.add_argument("--steps", nargs="+", default=["pressurize"], help="the scene's steps to run, from its first")
     parser.add_argument("--out", default=os.path.join(RESULTS, "solver_scaling"), help="results, without suffix")
-    parser.add_argument("--append", action="store_true", help="add the rows to those already in OUT.json")
+    parser.add_argument("--append", action="store_true",
+                        help="add the rows to those already in OUT.json (a row measured again replaces its old one)")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--solver", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -232,7 +233,8 @@ def main():
     for n_circ in args.n_circ:
         for ranks in args.ranks:
             for solver in args.solvers:
-                rows.append(run_one(n_circ, solver, ranks, args.steps))
+                row = run_one(n_circ, solver, ranks, args.steps)
+                rows = [r for r in rows if (r["n_circ"], r["solver"], r["ranks"]) != (n_circ, solver, ranks)] + [row]
                 print(table(rows[-1:]).splitlines()[-1], flush=True)
     agreement(rows)
     ranks = sorted({row["ranks"] for row in rows})
