@@ -67,6 +67,7 @@ DEFAULT_OPTIONS = {
     "snes_stol": 0.0,
     "snes_max_it": 12,
 }
+LOOSE_RTOL = 0.05  # the relative tolerance of a loose solve (an augmentation's, while the multipliers move)
 POLISH = 1e-3  # after a chord step, converged means this far below the tolerances
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
 MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
@@ -230,6 +231,8 @@ class NewtonSolver:
         tolerances = np.maximum(rtol * self.block_scales, atol)
         contracting = its and fnorm <= self.reuse_contraction * self.residual_norms[-2]
         polish = POLISH if self.reused and contracting else 1.0
+        if self.loose_rtol and self._loosely_converged(its, np.max(blocks / tolerances)):
+            return _REASON.CONVERGED_FNORM_RELATIVE
         if np.all(blocks <= polish * tolerances):
             return _REASON.CONVERGED_FNORM_ABS if np.all(blocks <= polish * atol) else _REASON.CONVERGED_FNORM_RELATIVE
         if its and step < stol * xnorm:
@@ -246,6 +249,13 @@ class NewtonSolver:
         if self.tangents >= self.max_tangents and not contracting:  # the next step needs a new one
             return _REASON.DIVERGED_MAX_IT
         return _REASON.ITERATING
+
+    def _loosely_converged(self, its, scaled):
+        """A loose solve's test: the residual, each block in units of its tolerance, LOOSE_RTOL
+        times what it was at the start of the solve."""
+        if its == 0:
+            self.loose_start = scaled
+        return its > 0 and scaled <= self.loose_rtol * self.loose_start
 
     def _stagnated(self, tolerances):
         """No new minimum of the residual, each block in units of its tolerance, in the last
@@ -267,11 +277,13 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x: PETSc.Vec, chord_start: bool = False) -> tuple[bool, int, float, str]:
+    def solve(self, x: PETSc.Vec, chord_start: bool = False, loose: bool = False) -> tuple[bool, int, float, str]:
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
         ``chord_start``: the first step reuses the last factorization (Newton again from a
-        converged state whose loads changed a little: an augmentation)."""
-        self.chord_start = chord_start
+        converged state whose loads changed a little: an augmentation). ``loose``: converged
+        once the residual is LOOSE_RTOL times its start, each block in units of its tolerance
+        (an augmentation's solve, inexact while the multipliers still move)."""
+        self.chord_start, self.loose_rtol = chord_start, LOOSE_RTOL if loose else 0.0
         self.residual_norms = []
         self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
         self.tangents = 0

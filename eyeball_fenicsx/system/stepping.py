@@ -156,17 +156,22 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     newton.update_pattern()
     problem.set_increment(load_factor >= 1.0 - 1e-12)
     converged, its, norm, reason = newton.solve(x)
-    settled = x.duplicate()
-    while converged and not problem.augment():
+    settled, loose = x.duplicate(), False  # loose: x converged at the loose tolerances only
+    while converged:
+        done = problem.augment()
+        if done and not loose:
+            break
+        # an augmentation's solve is loose until the multipliers settle; one more, at the
+        # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
-        before = norm, reason
-        converged, more, norm, reason = newton.solve(x, chord_start=True)
-        its += more
-        if not converged:  # the augmentation is abandoned: the converged state before it stands
+        before = norm, reason, loose
+        converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done)
+        its, loose = its + more, not done
+        if not converged and not done:  # the augmentation is abandoned: the state before it stands
             settled.copy(x)
             problem.abandon_augmentation()
             problem.vector_to_state(x)
-            converged, (norm, reason) = True, before
+            converged, (norm, reason, loose) = True, before
     settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
     increment = Increment(load_factor, its, norm, wall, factorized, newton.krylov_iterations - krylov, newton.memory_mb)
