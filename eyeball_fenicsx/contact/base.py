@@ -221,6 +221,7 @@ class ContactFeature(Feature):
         self._settled_change = self._settled_change * factor
         self._growth *= factor
         self._relaxation, self._last_update, self._selection = 1.0, None, None
+        self._contacts["jacobian"] = None  # the last tangent had the old penalty
 
     def _point_multipliers(self):
         return np.einsum("na,na->n", self.point_N, self.node_multiplier[self.point_nodes])

@@ -150,8 +150,8 @@ class NewtonSolver:
         norms = self.residual_norms
         # a tangent whose active set (contact) changed is never reused
         first = snes.getIterationNumber() == 0
-        self.reused = self.linear.direct and ((first and self.chord_start) or (
-            not first and norms[-1] <= self.reuse_contraction * norms[-2] and not self.problem.tangent_outdated()))
+        self.reused = self.linear.direct and (self.chord_start if first else norms[-1] <= self.reuse_contraction * norms[-2]) \
+            and not self.problem.tangent_outdated()
         if self.reused:
             return
         self.problem.J(snes, x, A, P)

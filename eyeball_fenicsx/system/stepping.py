@@ -39,6 +39,7 @@ from .problem import Problem
 from .settings import SolverSettings
 
 log = logging.getLogger(__name__)
+STRETCH = 1.5  # an increment that would leave less than half its size to the step's end takes that too
 
 
 def ramp(feature_step: int, step_index: int, t: float) -> float:
@@ -93,7 +94,7 @@ def run_step(problem: Problem, newton: NewtonSolver, settings: SolverSettings, s
     use_predictor = settings.predictor
     newton.reuse_contraction = settings.reuse_contraction
     while t < 1.0 - 1e-12:
-        dt = min(dt, 1.0 - t)
+        dt = 1.0 - t if 1.0 - t < STRETCH * dt else dt  # no sliver of an increment left over
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
         if use_predictor and x_prev is not None:
@@ -165,7 +166,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
         before = norm, reason, loose
-        converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done)
+        converged, more, norm, reason = newton.solve(x, chord_start=not done, loose=not done)
         its, loose = its + more, not done
         if not converged and not done:  # the augmentation is abandoned: the state before it stands
             settled.copy(x)
