@@ -4,7 +4,13 @@
 * Predictor: the last increment's change, extrapolated, starts Newton; shortened where it would
   close a contact gap too far or invert an element, dropped where it still would.
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
-  augmented Lagrangian of contact); those solves start from the last factorization.
+  augmented Lagrangian of contact). Those solves are loose (``NewtonSolver.solve``: the
+  residual cut by 1 / LOOSE_RTOL, from the last factorization) while the multipliers move, as
+  in inexact Uzawa methods (Elman and Golub, SIAM J. Numer. Anal. 31 (1994) 1645), and the
+  last, once the features accept the state, is at the usual tolerances with a new tangent; the
+  features then check the state again.
+* The last increment of a step takes what is left of the step if that is less than
+  ``STRETCH`` times its size (no sliver of an increment left over).
 * Increment size: after a converged increment that factorized n tangents, the next one is
   scaled by ``easy_iterations / n``, clipped to [1 / ``growth``, ``growth``], never below the
   smallest cut-back: a rule aimed at ``easy_iterations`` tangents per increment, as FEBio's
