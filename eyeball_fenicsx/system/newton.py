@@ -73,7 +73,7 @@ DEFAULT_OPTIONS = {
     "snes_stol": 0.0,
     "snes_max_it": 12,
 }
-LOOSE_RTOL = 0.05  # the relative tolerance of a loose solve (an augmentation's, while the multipliers move)
+LOOSE_RTOL = 1e-3  # the relative tolerance of a loose solve (an augmentation's, while the multipliers move)
 POLISH = 0.1  # after a chord step, converged means this far below the tolerances
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
 MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
