@@ -4,8 +4,10 @@
 * Predictor: the last increment's change, extrapolated, starts Newton; shortened where it would
   close a contact gap too far or invert an element, dropped where it still would.
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
-  augmented Lagrangian of contact). Those solves are loose (``NewtonSolver.solve``: the
-  residual cut by 1 / LOOSE_RTOL, from the last factorization) while the multipliers move, as
+  augmented Lagrangian of contact, which solves again in a step's last increment only). Those
+  solves, and the first one of a step's last increment when the scene has active sets, are
+  loose (``NewtonSolver.solve``: the residual cut by 1 / LOOSE_RTOL; the augmentations' from
+  the last factorization) while the multipliers move, as
   in inexact Uzawa methods (Elman and Golub, SIAM J. Numer. Anal. 31 (1994) 1645), and the
   last, once the features accept the state, is at the usual tolerances with a new tangent; the
   features then check the state again.
@@ -161,9 +163,11 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     the increment's ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
-    problem.set_increment(load_factor >= 1.0 - 1e-12)
-    converged, its, norm, reason = newton.solve(x)
-    settled, loose = x.duplicate(), False  # loose: x converged at the loose tolerances only
+    final = load_factor >= 1.0 - 1e-12
+    problem.set_increment(final)
+    loose = final and bool(problem.active_sets)  # x will converge at the loose tolerances only
+    converged, its, norm, reason = newton.solve(x, loose=loose)
+    settled = x.duplicate()
     while converged:
         done = problem.augment()
         if done and not loose:
