@@ -17,7 +17,8 @@
   scaled by ``easy_iterations / n``, clipped to [1 / ``growth``, ``growth``], never below the
   smallest cut-back: a rule aimed at ``easy_iterations`` tangents per increment, as FEBio's
   auto time stepper aims at ``opt_iter`` iterations (``FECore/FETimeStepController.cpp``,
-  which scales by the square root of that ratio and relaxes toward its largest step).
+  11 by default, counting its quasi-Newton updates too; it scales by the square root of that
+  ratio and relaxes toward its largest step).
 * A failed increment is halved, at most ``max_cutbacks`` times; then the run ends with a
   ``ConvergenceError`` that keeps the converged increments.
 * A run asked to stop (``stop``: system/signals.py) stops after the next increment that
