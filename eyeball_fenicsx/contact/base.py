@@ -14,7 +14,8 @@ node's multiplier takes Uzawa's update with its weighted gap,
     lambda_i <- <lambda_i - alpha_i g_i>_+,   g_i = sum_pts W N_i g / sum_pts W N_i
                                              (over the points that carry a pressure),
 
-and Newton runs again (with Aitken's relaxation of the updates), until no node's update,
+and Newton runs again (with Aitken's relaxation of the updates; loosely until the updates
+settle, then once at the usual tolerances: system/stepping.py), until no node's update,
 read as the penetration it would remove (|Delta lambda_i| / alpha_i), exceeds AUGMENT_DEPTH
 of the thickness of the element under it: the weighted gaps then vanish, to that depth,
 wherever the surfaces press, whatever the penalty. One constraint per slave node, as in
@@ -24,8 +25,9 @@ less than half of the penetration left (PENALTY_GROWTH_TEST: a structure behind 
 far stiffer than the penalty, such as sutures pulling a buckle in) multiplies the penalty by
 PENALTY_GROWTH for the rest of the increment, up to MAX_PENALTY_GROWTH; a pass whose solve
 fails is abandoned (the converged state before it stands, as at the cap of passes), never
-turned into a cut-back of the increment. Increments inside a
-step take one update each, without solving again (it starts the next increment closer).
+turned into a cut-back of the increment. A penalty that grows outdates the tangent (no chord
+step with the old one). Increments inside a step take one update each, without solving again
+(it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
 gaps drives the surfaces through each other by the whole step, and the penalty throws them
@@ -221,6 +223,7 @@ class ContactFeature(Feature):
         self._settled_change = self._settled_change * factor
         self._growth *= factor
         self._relaxation, self._last_update, self._selection = 1.0, None, None
+        self._contacts["jacobian"] = None  # the last tangent had the old penalty
 
     def _point_multipliers(self):
         return np.einsum("na,na->n", self.point_N, self.node_multiplier[self.point_nodes])

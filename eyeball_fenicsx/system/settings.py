@@ -22,7 +22,9 @@ class SolverSettings:
             shrinks by at most its inverse (1: equal increments, cut back only where one fails).
         easy_iterations: the target of the step-size rule: the next increment is this increment
             times easy_iterations / (tangents it factorized), within [1 / growth, growth] (with
-            factorization reuse, the cheap chord steps do not count).
+            factorization reuse, the cheap chord steps do not count). 8: a contact onset alone
+            takes about 10 (the first increment of the encircling operation's "pressurize"), and
+            the increment after it need not be halved for that.
         predictor: extrapolate the previous increment to start Newton (secant predictor).
         reuse_contraction: reuse the factorization for the next Newton step after a step that
             multiplied the residual norm by at most this factor (0: a new tangent every step).
@@ -33,7 +35,7 @@ class SolverSettings:
     increments: int = 2
     max_cutbacks: int = 10
     growth: float = 2.0
-    easy_iterations: int = 5
+    easy_iterations: int = 8
     predictor: bool = True
     reuse_contraction: float = 0.1
     linear: str = "mumps"

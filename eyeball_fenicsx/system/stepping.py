@@ -4,12 +4,21 @@
 * Predictor: the last increment's change, extrapolated, starts Newton; shortened where it would
   close a contact gap too far or invert an element, dropped where it still would.
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
-  augmented Lagrangian of contact); those solves start from the last factorization.
+  augmented Lagrangian of contact, which solves again in a step's last increment only). Those
+  solves, and the first one of a step's last increment when the scene has active sets, are
+  loose (``NewtonSolver.solve``: the residual cut by 1 / LOOSE_RTOL; the augmentations' from
+  the last factorization) while the multipliers move, as
+  in inexact Uzawa methods (Elman and Golub, SIAM J. Numer. Anal. 31 (1994) 1645), and the
+  last, once the features accept the state, is at the usual tolerances with a new tangent; the
+  features then check the state again.
+* The last increment of a step takes what is left of the step if that is less than
+  ``STRETCH`` times its size (no sliver of an increment left over).
 * Increment size: after a converged increment that factorized n tangents, the next one is
   scaled by ``easy_iterations / n``, clipped to [1 / ``growth``, ``growth``], never below the
   smallest cut-back: a rule aimed at ``easy_iterations`` tangents per increment, as FEBio's
   auto time stepper aims at ``opt_iter`` iterations (``FECore/FETimeStepController.cpp``,
-  which scales by the square root of that ratio and relaxes toward its largest step).
+  11 by default, counting its quasi-Newton updates too; it scales by the square root of that
+  ratio and relaxes toward its largest step).
 * A failed increment is halved, at most ``max_cutbacks`` times; then the run ends with a
   ``ConvergenceError`` that keeps the converged increments.
 * A run asked to stop (``stop``: system/signals.py) stops after the next increment that
@@ -39,6 +48,7 @@ from .problem import Problem
 from .settings import SolverSettings
 
 log = logging.getLogger(__name__)
+STRETCH = 1.5  # an increment that would leave less than half its size to the step's end takes that too
 
 
 def ramp(feature_step: int, step_index: int, t: float) -> float:
@@ -93,7 +103,7 @@ def run_step(problem: Problem, newton: NewtonSolver, settings: SolverSettings, s
     use_predictor = settings.predictor
     newton.reuse_contraction = settings.reuse_contraction
     while t < 1.0 - 1e-12:
-        dt = min(dt, 1.0 - t)
+        dt = 1.0 - t if 1.0 - t < STRETCH * dt else dt  # no sliver of an increment left over
         x.copy(x_old)
         problem.set_load_factor([ramp(f.step, step_index, t + dt) for f in problem.features])
         if use_predictor and x_prev is not None:
@@ -154,19 +164,26 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     the increment's ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
-    problem.set_increment(load_factor >= 1.0 - 1e-12)
-    converged, its, norm, reason = newton.solve(x)
+    final = load_factor >= 1.0 - 1e-12
+    problem.set_increment(final)
+    loose = final and bool(problem.active_sets)  # x will converge at the loose tolerances only
+    converged, its, norm, reason = newton.solve(x, loose=loose)
     settled = x.duplicate()
-    while converged and not problem.augment():
+    while converged:
+        done = problem.augment()
+        if done and not loose:
+            break
+        # an augmentation's solve is loose until the multipliers settle; one more, at the
+        # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
-        before = norm, reason
-        converged, more, norm, reason = newton.solve(x, chord_start=True)
-        its += more
-        if not converged:  # the augmentation is abandoned: the converged state before it stands
+        before = norm, reason, loose
+        converged, more, norm, reason = newton.solve(x, chord_start=not done, loose=not done)
+        its, loose = its + more, not done
+        if not converged and not done:  # the augmentation is abandoned: the state before it stands
             settled.copy(x)
             problem.abandon_augmentation()
             problem.vector_to_state(x)
-            converged, (norm, reason) = True, before
+            converged, (norm, reason, loose) = True, before
     settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
     increment = Increment(load_factor, its, norm, wall, factorized, newton.krylov_iterations - krylov, newton.memory_mb)
