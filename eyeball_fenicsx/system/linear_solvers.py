@@ -63,12 +63,11 @@ _ITERATIVE = {
 class LinearSolver:
     """A linear solver's PETSc defaults, its set-up of the PC and what it reports per Newton solve.
 
-    ``direct``: a factorization, which Newton may choose (LU or LDL^T); ``reuses_tangents``: Newton
+    ``direct``: a factorization, which Newton may choose (LU or LDL^T). With every solver Newton
     may keep a tangent and what the PC made of it for chord steps (a factorization, or the
     iterative path's preconditioner, with which the Krylov solve takes a chord step too)."""
 
     direct = True
-    reuses_tangents = True
 
     def __init__(self, name: str, problem: Problem):
         self.name = name

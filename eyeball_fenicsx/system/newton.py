@@ -157,7 +157,7 @@ class NewtonSolver:
         # a tangent whose active set (contact) changed is never reused
         first = snes.getIterationNumber() == 0
         contracted = self.chord_start if first else norms[-1] <= self.reuse_contraction * norms[-2]
-        self.reused = self.linear.reuses_tangents and contracted and not self.problem.tangent_outdated()
+        self.reused = contracted and not self.problem.tangent_outdated()
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
