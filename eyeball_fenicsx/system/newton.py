@@ -1,6 +1,6 @@
 """Newton (PETSc SNES) for one load increment (``stepping.py`` walks the load path); each Newton
 step solved by the scene's linear solver (``linear_solvers.py``: MUMPS, MUMPS with block low-rank
-compression, or a Krylov method with a field-split preconditioner).
+compression, or FGMRES with an augmented-Lagrangian preconditioner).
 
 PETSc options live under the prefix ``eye_``: pass ``-eye_snes_monitor``,
 ``-eye_snes_linesearch_type basic``, ``-eye_mat_mumps_icntl_4 2`` ... on the command line.
@@ -9,7 +9,7 @@ Our defaults are set only where the user gave nothing.
 With a direct solver (MUMPS), the numeric factorization is almost all of the cost of a Newton
 iteration (``benchmarks/sphere_scaling.py``), so the solver spends as few as it can, without
 changing the converged answer (the residual tolerances decide it); the iterative solver
-assembles a new tangent and preconditioner every step:
+keeps a tangent's preconditioner for chord steps the same way:
 
 * symmetric tangent -> MUMPS LDL^T (``pc_type cholesky``): half the flops of LU. Used when every
   feature with hand-assembled terms declares ``symmetric_tangent = True``
@@ -112,7 +112,7 @@ class NewtonSolver:
         self.step_halvings = []
         self.factorizations = 0  # new tangents (a factorization, or a new preconditioner)
         self.krylov_iterations = 0  # of every solve so far
-        self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve
+        self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve (the iterative path's: its block's)
         snes.setMonitor(self._monitor)
 
     @contextlib.contextmanager

@@ -71,7 +71,7 @@ class Increment:
     wall_s: float
     factorizations: int  # new tangents factorized; the other iterations reused one
     krylov_iterations: int  # of the iterative linear solver (0 for MUMPS)
-    mumps_memory_MB: int  # MUMPS' INFOG(21) after the increment: the most one process used (0: iterative)
+    mumps_memory_MB: int  # MUMPS' INFOG(21) after the increment, the most one process used (iterative: its block's)
 
 
 @dataclasses.dataclass
