@@ -7,7 +7,9 @@ after the ``EyeMeasures`` (output/measures.py) whose results it draws: after eac
 ``section_<step>.png`` (the deformed meridional section coloured by the von Mises stress the
 measures just interpolated) and, with a detachment, ``retina_gap_<step>.png`` (the gap they just
 measured, flattened), and at the end of a run ``eye_measures.png`` (the scalar measures of that
-run's steps, from its summary).
+run's steps, from its summary). Each figure has fixed margins (no layout pass) and is rendered
+once, on its own Agg canvas (output/files.py); the section's (``SectionPicture``), like the outer
+surface's (output/eye_surface.py), is built for the first step and drawn again after the others.
 """
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ import numpy as np
 from dolfinx import fem
 
 from .eye_surface import OuterSurface, gather_faces, quad_nodes
-from .files import flatten, plot_curves, save_figure_atomic
+from .files import flatten, new_figure, plot_curves, save_figure_atomic
 from .labels import label
 from .measures import DETACHED_GAP, EyeMeasures, polar_angle
 from .observer import Observer
@@ -76,13 +78,11 @@ def eye_section_png(mesh_data: MeshData, path: str, title: str | None = None) ->
     polygons, regions, _ = meridional_section(mesh_data)
     if polygons is None:  # not rank 0
         return
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
     from matplotlib.patches import Patch
 
-    figure, axes = plt.subplots(figsize=(7, 8))
+    figure = new_figure((7, 8))
+    axes = figure.add_axes((0.12, 0.07, 0.85, 0.87))
     colours = [TISSUE_COLOURS.get(name, "grey") for name in regions]
     axes.add_collection(PolyCollection(polygons, facecolors=colours, edgecolors="black", linewidths=0.15))
     axes.autoscale_view()
@@ -94,12 +94,42 @@ def eye_section_png(mesh_data: MeshData, path: str, title: str | None = None) ->
                          for name in present], loc="center", fontsize=8, frameon=False)
     if title:
         axes.set_title(title)
-    figure.tight_layout()
     save_figure_atomic(figure, path)
-    plt.close(figure)
 
 
-def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title: str | None = None) -> None:
+class SectionPicture:
+    """The figure of the deformed section coloured by the von Mises stress, built at its first
+    draw and drawn again with the new faces, colour scale and title after (its axes, colour
+    bar and ticks are kept)."""
+
+    def __init__(self) -> None:
+        self._figure = None
+
+    def draw(self, polygons: np.ndarray, values: np.ndarray, path: str, title: str | None = None) -> None:
+        """Write the picture of faces ``polygons`` (count, 4, 2) coloured by ``values`` (MPa). Call on one rank."""
+        from matplotlib.collections import PolyCollection
+
+        if self._figure is None:
+            self._figure = figure = new_figure((7, 8))
+            self._axes = axes = figure.add_axes((0.12, 0.07, 0.7, 0.87))
+            self._faces = PolyCollection([], cmap="jet", edgecolors="none")
+            axes.add_collection(self._faces, autolim=False)
+            figure.colorbar(self._faces, cax=figure.add_axes((0.85, 0.2, 0.035, 0.6)), label="von Mises stress (MPa)")
+            axes.set_aspect("equal")
+            axes.set_xlabel("x (mm)")
+            axes.set_ylabel("z: optic axis (mm)")
+        self._faces.set_verts(polygons)
+        self._faces.set_array(values)
+        self._faces.set_clim(values.min(), values.max())
+        low, high = polygons.reshape(-1, 2).min(axis=0), polygons.reshape(-1, 2).max(axis=0)
+        margin = 0.05 * (high - low)  # matplotlib's default margins
+        self._axes.set(xlim=(low[0] - margin[0], high[0] + margin[0]), ylim=(low[1] - margin[1], high[1] + margin[1]))
+        self._axes.set_title(title or "", y=1.0)  # fixed above the axes: nothing of theirs goes there
+        save_figure_atomic(self._figure, path, dpi=110)
+
+
+def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title: str | None = None,
+                       picture: SectionPicture | None = None) -> None:
     """Draw the deformed meridional section coloured by the von Mises stress (MPa), as the
     seed shows its results. Collective; rank 0 writes the file.
 
@@ -107,28 +137,12 @@ def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title:
         solid: the solved ``MixedSolid`` (its current displacement deforms the section).
         mises: a cell-wise (DG0) function of the von Mises stress.
         path: the .png file to write.
+        picture: the figure to draw again (a new one if None).
     """
     polygons, _, values = meridional_section(solid.mesh_data, solid=solid, field=mises)
     if polygons is None or not len(polygons):  # not rank 0, or no face in the plane y = 0
         return
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
-
-    figure, axes = plt.subplots(figsize=(7, 8))
-    collection = PolyCollection(polygons, array=values, cmap="jet", edgecolors="none")
-    axes.add_collection(collection)
-    figure.colorbar(collection, ax=axes, label="von Mises stress (MPa)", shrink=0.7)
-    axes.autoscale_view()
-    axes.set_aspect("equal")
-    axes.set_xlabel("x (mm)")
-    axes.set_ylabel("z: optic axis (mm)")
-    if title:
-        axes.set_title(title)
-    figure.tight_layout()
-    save_figure_atomic(figure, path)
-    plt.close(figure)
+    (picture or SectionPicture()).draw(polygons, values, path, title)
 
 
 def retina_gap_png(azimuth: np.ndarray, polar: np.ndarray, gap: np.ndarray, path: str, detached: float,
@@ -138,23 +152,19 @@ def retina_gap_png(azimuth: np.ndarray, polar: np.ndarray, gap: np.ndarray, path
     with the contour of ``detached``, the gap beyond which the retina counts as detached. Call
     on one rank.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, axes = plt.subplots(figsize=(8, 4.5))
+    figure = new_figure((8, 4.5))
+    axes = figure.add_axes((0.09, 0.11, 0.72, 0.81))
     levels = np.linspace(min(gap.min(), 0.0), max(gap.max(), 1e-3), 21)
     filled = axes.tricontourf(azimuth, polar, gap, levels=levels, cmap="viridis")
     if gap.min() < detached < gap.max():
         axes.tricontour(azimuth, polar, gap, levels=[detached], colors="white", linewidths=1.0)
-    figure.colorbar(filled, ax=axes, label=f"retina-choroid gap (mm); white: {detached} mm, detached beyond")
+    figure.colorbar(filled, cax=figure.add_axes((0.84, 0.11, 0.03, 0.81)),
+                    label=f"retina-choroid gap (mm); white: {detached} mm, detached beyond")
     axes.set_xlabel("azimuth (deg)")
     axes.set_ylabel("polar angle from the posterior pole (deg)")
     if title:
-        axes.set_title(title)
-    figure.tight_layout()
-    save_figure_atomic(figure, path)
-    plt.close(figure)
+        axes.set_title(title, y=1.0)
+    save_figure_atomic(figure, path, dpi=110)
 
 
 def eye_measures_png(steps: list[dict], path: str) -> None:
@@ -189,7 +199,7 @@ class EyePictures(Observer):
 
     def setup(self, solid: MixedSolid, problem: Problem) -> None:
         self.solid = solid
-        self._surface = OuterSurface(solid)
+        self._surface, self._section = OuterSurface(solid), SectionPicture()
 
     def start(self, scene: str, out_dir: str | None) -> None:
         self.scene, self.out_dir = scene, out_dir
@@ -203,7 +213,7 @@ class EyePictures(Observer):
         self._surface.draw(self.measures.mises, files["surface"],
                            title=f"{self.scene}, step {step}: von Mises stress (MPa)")
         stress_section_png(self.solid, self.measures.mises, files["section"],
-                           title=f"{self.scene}, step {step}: von Mises stress (MPa)")
+                           title=f"{self.scene}, step {step}: von Mises stress (MPa)", picture=self._section)
         X, gap = self.measures.retina_gap_map()
         if X is not None:
             retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,

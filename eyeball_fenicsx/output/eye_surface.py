@@ -7,13 +7,16 @@ cornea, the sclera, the optic nerve, the band's and the tire's faces but their i
 lie on the sclera), moved by the current displacement and gathered on rank 0 with their cells'
 stress (``gather_faces``, with which the section of output/eye_pictures.py gathers its faces
 too): a surface, never the mesh. A wedge model is mirrored across the planes of its cut surfaces
-("cut_0", "cut_1") to show the whole eye. Of the globe only the faces that face the viewer are
-drawn (centroids in front of the plane through the eye's centre normal to the line of sight),
-so that matplotlib's painter's algorithm (Poly3DCollection, faces sorted by mean depth, in an
-orthographic projection, whose visible half of a sphere is exactly that) has no hidden face to
-misplace; the buckle's faces are all drawn, since its far side shows beyond the globe's outline.
-Each face is shaded by its angle to a light along the line of sight (a Lambert term,
-0.55 + 0.45 |cos|), since matplotlib 3.6 does not light coloured faces.
+("cut_0", "cut_1") to show the whole eye. The faces are projected orthographically along the
+line of sight (``VIEW``, the optic axis to the right, ``screen_axes``) and drawn as one 2D
+PolyCollection, farthest first (the painter's algorithm, faces sorted by mean depth). Of the
+globe only the faces that face the viewer are drawn (centroids in front of the plane through the
+eye's centre normal to the line of sight, which in an orthographic projection is exactly the
+visible half of a sphere), so that the painter's algorithm has no hidden face to misplace; the
+buckle's faces are all drawn, since its far side shows beyond the globe's outline. Each face is
+shaded by its angle to a light along the line of sight (a Lambert term, 0.55 + 0.45 |cos|).
+The figure (``SurfacePicture``) is built for the first picture and drawn again after each step with the
+new faces, colour scales and title.
 
 Colour scales: the band's stress is not the tissues' (default eye: the largest 0.004 MPa against
 the sclera's 0.027 at 15 mmHg, 0.23 against 0.11 once tightened), so on one scale one of the two
@@ -32,7 +35,7 @@ import numpy as np
 from dolfinx import cpp
 from mpi4py import MPI
 
-from .files import save_figure_atomic
+from .files import new_figure, save_figure_atomic
 
 if TYPE_CHECKING:
     from dolfinx import fem
@@ -52,6 +55,10 @@ PLOT_AXES = (2, 0, 1)
 # and to its side, a little from above, so that the cornea, the band and the globe behind show.
 VIEW = np.array([0.55, -0.75, 0.35])
 SMALLEST_TOP = 1e-6  # MPa: the top of a colour scale over a body without stress
+EYE_MAP, BUCKLE_MAP = "jet", "copper"
+# The picture (inches), and where the eye sits in it: the centre of its bounding box at FRAME_CENTRE
+# (fractions of the figure), the figure's height FRAME_HEIGHT times the box's largest side.
+FIGURE_SIZE, FRAME_CENTRE, FRAME_HEIGHT = (8.0, 6.0), (0.36, 0.47), 1.26
 
 
 def quad_nodes(msh, facets: np.ndarray) -> np.ndarray:
@@ -142,15 +149,25 @@ def mirrored(corners: np.ndarray, values: np.ndarray, buckle: np.ndarray, axes: 
     return np.concatenate(copies), np.tile(values, count), np.tile(buckle, count)
 
 
-def stress_surface_png(corners: np.ndarray, regions: list[str], values: np.ndarray, path: str, axes: list[int],
-                       title: str | None = None) -> None:
-    """Draw the outer surface, mirrored across ``axes``, coloured by the von Mises stress (module
-    docstring), as a PNG. Call on one rank, with what ``gather_faces`` gathered."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib import cm, colors
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+def screen_axes(view: np.ndarray) -> np.ndarray:
+    """The orthographic projection along the unit vector ``view`` (from the scene towards the
+    viewer), as a (3, 2) matrix: a point's coordinates on the screen, to the right and upwards
+    (the third axis upright)."""
+    right = np.cross((0.0, 0.0, 1.0), view)
+    right /= np.linalg.norm(right)
+    return np.stack([right, np.cross(view, right)], axis=1)
+
+
+def shaded_faces(corners: np.ndarray, regions: list[str], values: np.ndarray, axes: list[int]) -> tuple:
+    """The faces of the picture (module docstring): the outer surface mirrored across ``axes``,
+    the globe's faces that face the viewer and all the buckle's, projected, farthest first.
+
+    Returns:
+        ``(polygons, colours, tops, limits)``: the faces on the screen (count, 4, 2), their
+        shaded RGBA colours, the tops of the eye's and the buckle's colour scales (MPa; the
+        buckle's None without one) and the picture's (x, y) limits.
+    """
+    from matplotlib import colormaps
 
     buckle = np.array([region in BUCKLE_REGIONS for region in regions], dtype=bool)
     corners, values, buckle = mirrored(corners, values, buckle, axes)
@@ -161,36 +178,65 @@ def stress_surface_png(corners: np.ndarray, regions: list[str], values: np.ndarr
     normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 1])
     light = 0.55 + 0.45 * np.abs(normals @ view) / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)
     eye_values = values[~buckle]
-    eye_norm = colors.Normalize(0.0, max(float(np.percentile(eye_values, EYE_PERCENTILE)) if len(eye_values) else 0.0,
-                                         SMALLEST_TOP))
-    buckle_norm = colors.Normalize(0.0, max(float(values[buckle].max()) if buckle.any() else 0.0, SMALLEST_TOP))
-    eye_map, buckle_map = plt.get_cmap("jet"), plt.get_cmap("copper")
-    rgba = np.where(buckle[:, None], buckle_map(buckle_norm(values)), eye_map(eye_norm(values)))
+    eye_top = max(float(np.percentile(eye_values, EYE_PERCENTILE)) if len(eye_values) else 0.0, SMALLEST_TOP)
+    buckle_top = max(float(values[buckle].max()), SMALLEST_TOP) if buckle.any() else None
+    rgba = np.where(buckle[:, None], colormaps[BUCKLE_MAP](values / (buckle_top or 1.0)),
+                    colormaps[EYE_MAP](values / eye_top))
     rgba[:, :3] *= light[:, None]
-
-    figure = plt.figure(figsize=(8, 6))
-    ax = figure.add_axes((-0.04, -0.04, 0.78, 1.0), projection="3d")
-    ax.add_collection3d(Poly3DCollection(corners, facecolors=rgba, edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
+    projection = screen_axes(view)
+    order = np.argsort(corners.mean(axis=1) @ view)  # the painter's algorithm: the farthest face first
     low, high = corners.reshape(-1, 3).min(axis=0), corners.reshape(-1, 3).max(axis=0)
-    centre, half = 0.5 * (low + high), 0.36 * (high - low).max()
-    ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half),
-           zlim=(centre[2] - half, centre[2] + half))
-    ax.set_box_aspect((1, 1, 1))
-    ax.set_axis_off()
-    ax.set_proj_type("ortho")
-    ax.view_init(elev=float(np.degrees(np.arcsin(view[2]))), azim=float(np.degrees(np.arctan2(view[1], view[0]))))
-    bars = [(eye_norm, eye_map, f"eye (MPa; top: {EYE_PERCENTILE:g}th percentile)", "max")]
-    if buckle.any():
-        bars.append((buckle_norm, buckle_map, "buckle (MPa)", "neither"))
-    for k, (norm, colour_map, text, extend) in enumerate(bars):
-        figure.colorbar(cm.ScalarMappable(norm, colour_map), cax=figure.add_axes((0.74 + 0.13 * k, 0.12, 0.025, 0.7)),
-                        extend=extend, label=f"von Mises stress, {text}")
-    if title:
-        figure.suptitle(title, fontsize=11)
-    figure.text(0.02, 0.02, ("the model mirrored to the whole eye; " if axes else "") + "the cornea to the right",
-                fontsize=8)
-    save_figure_atomic(figure, path, dpi=110)
-    plt.close(figure)
+    centre = 0.5 * (low + high) @ projection
+    (x, y), (width, height) = FRAME_CENTRE, FIGURE_SIZE
+    height_mm = FRAME_HEIGHT * (high - low).max()
+    width_mm = height_mm * width / height
+    limits = ((centre[0] - x * width_mm, centre[0] + (1 - x) * width_mm),
+              (centre[1] - y * height_mm, centre[1] + (1 - y) * height_mm))
+    return corners[order] @ projection, rgba[order], (eye_top, buckle_top), limits
+
+
+class SurfacePicture:
+    """The figure of the outer surface coloured by the von Mises stress, built at its first draw
+    and drawn again with the new faces, colour scales and title after (its axes, colour bars and
+    their ticks are kept)."""
+
+    def __init__(self) -> None:
+        self._figure = None
+
+    def _build(self, buckle: bool, whole: bool) -> None:
+        from matplotlib import cm, colors
+        from matplotlib.collections import PolyCollection
+
+        self._figure = figure = new_figure(FIGURE_SIZE)
+        self._axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
+        self._axes.set_axis_off()
+        self._faces = PolyCollection([], edgecolors=(0, 0, 0, 0.15), linewidths=0.1)
+        self._axes.add_collection(self._faces, autolim=False)
+        bars = [(EYE_MAP, f"eye (MPa; top: {EYE_PERCENTILE:g}th percentile)", "max")]
+        if buckle:
+            bars.append((BUCKLE_MAP, "buckle (MPa)", "neither"))
+        self._scales = [cm.ScalarMappable(colors.Normalize(0.0, 1.0), colour_map) for colour_map, _, _ in bars]
+        for k, (scale, (_, text, extend)) in enumerate(zip(self._scales, bars)):
+            figure.colorbar(scale, cax=figure.add_axes((0.74 + 0.13 * k, 0.12, 0.025, 0.7)), extend=extend,
+                            label=f"von Mises stress, {text}")
+        self._title = figure.suptitle("", fontsize=11)
+        figure.text(0.02, 0.02, ("the model mirrored to the whole eye; " if whole else "") + "the cornea to the right",
+                    fontsize=8)
+
+    def draw(self, corners: np.ndarray, regions: list[str], values: np.ndarray, path: str, axes: list[int],
+             title: str | None = None) -> None:
+        """Write the picture of the outer surface, mirrored across ``axes``. Call on one rank, with
+        what ``gather_faces`` gathered."""
+        polygons, colours, tops, (xlim, ylim) = shaded_faces(corners, regions, values, axes)
+        if self._figure is None:
+            self._build(tops[1] is not None, bool(axes))
+        self._faces.set_verts(polygons)
+        self._faces.set_facecolor(colours)
+        self._axes.set(xlim=xlim, ylim=ylim)
+        for scale, top in zip(self._scales, tops):
+            scale.set_clim(0.0, top)
+        self._title.set_text(title or "")
+        save_figure_atomic(self._figure, path, dpi=110)
 
 
 class OuterSurface:
@@ -200,9 +246,10 @@ class OuterSurface:
         self.solid = solid
         self.facets = outer_facets(solid)
         self.axes = mirror_axes(solid)
+        self.picture = SurfacePicture()
 
     def draw(self, mises: fem.Function, path: str, title: str | None = None) -> None:
         """The picture of the current state, coloured by ``mises`` (DG0). Collective; rank 0 writes."""
         corners, regions, values = gather_faces(self.solid.mesh_data, self.facets, self.solid, mises)
         if corners is not None and len(corners):
-            stress_surface_png(corners, regions, values, path, self.axes, title)
+            self.picture.draw(corners, regions, values, path, self.axes, title)

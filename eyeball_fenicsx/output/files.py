@@ -11,6 +11,7 @@ import os
 import shutil
 from typing import TYPE_CHECKING
 
+import numpy as np
 from dolfinx import fem, io
 from mpi4py import MPI
 
@@ -107,17 +108,40 @@ def write_json_atomic(path: str, data: dict, comm: MPI.Comm = MPI.COMM_WORLD) ->
     write_text_atomic(path, json.dumps(data, indent=1, allow_nan=False) if comm.rank == 0 else "", comm)
 
 
+def new_figure(figsize: tuple[float, float]):
+    """A matplotlib Figure on its own Agg canvas, outside pyplot's state (nothing to close)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    figure = Figure(figsize=figsize)
+    FigureCanvasAgg(figure)
+    return figure
+
+
 def save_figure_atomic(figure, path: str, dpi: int = 150) -> None:
-    """Save a matplotlib figure as a PNG under a temporary name, then rename it into place
-    (call on the one rank that draws)."""
+    """Render a matplotlib figure once on an Agg canvas at ``dpi`` and write it as an RGB PNG
+    (the figure's background is opaque; zlib level 3) under a temporary name, then rename it
+    into place (call on the one rank that draws)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+    figure.dpi = dpi
+    canvas = figure.canvas if isinstance(figure.canvas, FigureCanvasAgg) else FigureCanvasAgg(figure)
+    canvas.draw()
     tmp = f"{path}.tmp{os.getpid()}.png"
-    figure.savefig(tmp, dpi=dpi)
+    Image.fromarray(np.ascontiguousarray(np.asarray(canvas.buffer_rgba())[..., :3])).save(tmp, format="png",
+                                                                                         compress_level=3)
     os.replace(tmp, path)
+
+
+# The margins (inches) of each small plot of ``plot_curves`` in its 4 x 3 in cell: room for
+# the y tick labels on the left, the title above, the slanted x tick labels and the x label below.
+CELL, MARGINS = (4.0, 3.0), {"left": 0.7, "right": 0.15, "top": 0.35, "bottom": 0.8}
 
 
 def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xticklabels: list[str] | None = None,
                 bands: dict[str, tuple[list, list]] | None = None, band_label: str = "") -> None:
-    """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank).
+    """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank),
+    three in a row, each in a cell of fixed margins (``MARGINS``), the y tick labels in plain
+    numbers (no offset or multiplier above the axes, where the title is).
 
     Args:
         curves: {title: y values}.
@@ -125,26 +149,26 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
         bands: {title: (lower values, upper values)}: a shaded band about the curve of that
             title, named ``band_label`` in its legend.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     columns = min(3, len(curves))
     lines = -(-len(curves) // columns)
-    figure, axes = plt.subplots(lines, columns, figsize=(4 * columns, 3 * lines), squeeze=False)
-    for ax, (name, y) in zip(axes.ravel(), curves.items()):
+    width, height = CELL[0] * columns, CELL[1] * lines
+    figure = new_figure((width, height))
+    for k, (name, y) in enumerate(curves.items()):
+        line, column = divmod(k, columns)
+        ax = figure.add_axes(((column * CELL[0] + MARGINS["left"]) / width,
+                              ((lines - 1 - line) * CELL[1] + MARGINS["bottom"]) / height,
+                              (CELL[0] - MARGINS["left"] - MARGINS["right"]) / width,
+                              (CELL[1] - MARGINS["top"] - MARGINS["bottom"]) / height))
         ax.plot(x, y, "o-")
         if bands and name in bands:
             ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
             ax.legend(fontsize=7)
         ax.set_xlabel(xlabel)
-        ax.set_title(name, fontsize=9)
+        ax.set_title(name, fontsize=9, y=1.0)  # fixed above the axes: nothing of theirs goes there
+        ax.ticklabel_format(axis="y", style="plain", useOffset=False)
         if xticklabels is not None:
             ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
-    for ax in axes.ravel()[len(curves):]:
-        ax.axis("off")
-    figure.tight_layout()
     save_figure_atomic(figure, path, dpi=110)
-    plt.close(figure)
 
 
 def flatten(entries: dict, prefix: str = "") -> dict:
