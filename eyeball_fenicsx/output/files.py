@@ -134,14 +134,13 @@ def save_figure_atomic(figure, path: str, dpi: int = 150) -> None:
 
 # The margins (inches) of each small plot of ``plot_curves`` in its 4 x 3 in cell: room for
 # the y tick labels on the left, the title above, the slanted x tick labels and the x label below.
-CELL, MARGINS = (4.0, 3.0), {"left": 0.7, "right": 0.15, "top": 0.35, "bottom": 0.8}
+CELL, MARGINS = (4.0, 3.0), {"left": 0.8, "right": 0.15, "top": 0.35, "bottom": 0.8}
 
 
 def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xticklabels: list[str] | None = None,
                 bands: dict[str, tuple[list, list]] | None = None, band_label: str = "") -> None:
     """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank),
-    three in a row, each in a cell of fixed margins (``MARGINS``), the y tick labels in plain
-    numbers (no offset or multiplier above the axes, where the title is).
+    three in a row, each in a cell of fixed margins (``MARGINS``).
 
     Args:
         curves: {title: y values}.
@@ -164,11 +163,18 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
             ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
             ax.legend(fontsize=7)
         ax.set_xlabel(xlabel)
-        ax.set_title(name, fontsize=9, y=1.0)  # fixed above the axes: nothing of theirs goes there
-        ax.ticklabel_format(axis="y", style="plain", useOffset=False)
+        _title(ax, name)
         if xticklabels is not None:
             ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
     save_figure_atomic(figure, path, dpi=110)
+
+
+def _title(ax, name: str) -> None:
+    """The title of a small plot: at a fixed place above the axes (no positioning pass at drawing),
+    unless its y axis shows an offset or a multiplier there, which the title is then placed above."""
+    formatter = ax.yaxis.get_major_formatter()
+    formatter.set_locs(ax.yaxis.get_majorticklocs())
+    ax.set_title(name, fontsize=9, **({} if formatter.get_offset() else {"y": 1.0}))
 
 
 def flatten(entries: dict, prefix: str = "") -> dict:
