@@ -92,8 +92,8 @@ class ContactFeature(Feature):
     interpolates, (n, k)) and ``point_N`` (their weights) per point, ``slave_dofs`` (the owned slave nodes'
     local dofs, (n, 3)) and ``mean_penalty``; and give ``_positions()`` (collective: the
     state the selection depends on), ``_select(positions)``, ``_forces(selection, index, p,
-    k, tangent)`` and ``_gaps_along(du)`` (the points and their gaps at fractions of du, of all the
-    points or of some).
+    k, tangent)`` and ``_gaps_along(du)`` (the points, their gaps now, and their gaps at fractions
+    of du, of all the points or of some).
     """
 
     section = "contact"
@@ -301,11 +301,11 @@ class ContactFeature(Feature):
         docstring; collective)."""
         if not self.active:
             return 1.0
-        point, gaps = self._gaps_along(du)
+        point, now, gaps = self._gaps_along(du)
         force = self.solid.comm.allreduce(np.abs(residual[self.slave_dofs]).max(initial=0.0), op=MPI.MAX)
         shift = self._point_multipliers()[point] / self.alpha[point]
         depth = np.maximum(force / (self.alpha[point] * self.weight[point]), ONSET_DEPTH * self.thickness[point])
-        now, new = gaps(0.0) - shift + depth, gaps(1.0) - shift + depth
+        now, new = now - shift + depth, gaps(1.0) - shift + depth
         closing = np.flatnonzero((now > depth + self.open_gap) & (new < 0))  # only these are searched
         shift, depth = shift[closing], depth[closing]
         lo, hi, f_lo, f_hi = np.zeros(len(closing)), np.ones(len(closing)), now[closing], new[closing]

@@ -1,7 +1,8 @@
 """Contact kinematics: a slave point projected on a master surface along its continuous normal.
 
-Segments are the facets as the first-order element sees them: bilinear quadrilaterals on
-hexahedra, linear triangles on tetrahedra, nodes counter-clockwise seen from outside.
+Segments are the facets as the first-order element sees them (``segments.py``): bilinear
+quadrilaterals on hexahedra, linear triangles on tetrahedra, nodes counter-clockwise seen
+from outside.
 
 **A continuous normal field.** Every master node a carries the normal
 
@@ -48,55 +49,16 @@ from collections.abc import Sequence
 import numpy as np
 
 
-class Triangle:
-    """Linear triangle: N = (1 - xi_1 - xi_2, xi_1, xi_2)."""
-
-    corners = 3
-    centre = (1.0 / 3.0, 1.0 / 3.0)
-    bounds = (-1.0, 2.0)
-    _dN = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
-    # degree-2 Gauss points (Strang and Fix): the weights sum to the reference area 1/2
-    gauss_points = np.array([[1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
-    gauss_weights = np.full(3, 1 / 6)
-
-    @staticmethod
-    def shape(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """N (n, 3) and dN/dxi (n, 3, 2) at points xi (n, 2)."""
-        N = np.column_stack([1.0 - xi[:, 0] - xi[:, 1], xi[:, 0], xi[:, 1]])
-        return N, np.broadcast_to(Triangle._dN, (len(xi), 3, 2))
-
-    @staticmethod
-    def outside(xi: np.ndarray) -> np.ndarray:
-        """How far outside the segment a point lies, as a fraction of its size."""
-        return np.maximum(0.0, -np.min(Triangle.shape(xi)[0], axis=1))
-
-
-class Quad:
-    """Bilinear quadrilateral on [-1, 1]^2, nodes counter-clockwise."""
-
-    corners = 4
-    centre = (0.0, 0.0)
-    bounds = (-2.0, 2.0)
-    _signs = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
-    gauss_points = _signs / np.sqrt(3.0)  # 2 x 2 Gauss points, weight 1 each
-    gauss_weights = np.ones(4)
-
-    @staticmethod
-    def shape(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = Quad._signs
-        f = 1.0 + xi[:, None, :] * s[None, :, :]  # (n, 4, 2): 1 + s_b xi_b
-        N = 0.25 * f[:, :, 0] * f[:, :, 1]
-        dN = 0.25 * np.stack([s[:, 0] * f[:, :, 1], s[:, 1] * f[:, :, 0]], axis=-1)
-        return N, dN
-
-    @staticmethod
-    def outside(xi: np.ndarray) -> np.ndarray:
-        return np.maximum(0.0, 0.5 * (np.max(np.abs(xi), axis=1) - 1.0))
+def cross(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    """a x b of stacks of 3-vectors, their components along ``axis``, by components (np.cross
+    without its overhead)."""
+    (a0, a1, a2), (b0, b1, b2) = np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0)
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=axis)
 
 
 def corner_products(x_seg: np.ndarray) -> np.ndarray:
     """(x_next - x_a) x (x_prev - x_a) at each corner of segments x_seg (m, k, 3)."""
-    return np.cross(np.roll(x_seg, -1, axis=1) - x_seg, np.roll(x_seg, 1, axis=1) - x_seg)
+    return cross(np.roll(x_seg, -1, axis=1) - x_seg, np.roll(x_seg, 1, axis=1) - x_seg)
 
 
 @dataclasses.dataclass
@@ -112,7 +74,8 @@ class Patches:
         scale: (m, k) s_a, the reference length of each corner's summed normal.
         mirror: (m, k, 3, 3) the projector applied to each corner's summed normal: the
             identity, or I - e e^T for a node on a symmetry plane of normal e (the facets
-            mirrored across it add the opposite e-component).
+            mirrored across it add the opposite e-component); diagonal, the planes being
+            coordinate planes.
     """
 
     nodes: np.ndarray
@@ -223,10 +186,13 @@ def project(x_s: np.ndarray, N_s: np.ndarray, x_p: np.ndarray, patch: Patches | 
         nu = _normals(edges, patch)
     x_seg = x_p[:, : kind.corners]
     xi, g, converged = _feet(x_s, nu, x_seg, kind, start, iterations, tolerance)
-    N, dN, m, m_b, J = _frame(kind, xi, g, nu, x_seg)
-    length = np.linalg.norm(m, axis=1)
-    normal = m / length[:, None]
-    result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, normal, N)
+    if derivatives:
+        N, dN, m, m_b, J = _frame(kind, xi, g, nu, x_seg)
+    else:
+        N = kind.shape(xi)[0]
+        m = (N[:, None, :] @ nu)[:, 0]
+    length = np.sqrt(_dot(m, m))
+    result = Projection(g * length, xi, (kind.outside(xi) < 1e-9) & converged, m / length[:, None], N)
     if derivatives:
         _add_derivatives(result, N_s, x_p.shape[1], patch, edges, g, dN, m_b, J, length)
     return result
@@ -239,17 +205,22 @@ def corner_normals(x_p: np.ndarray, patch: Patches, k: int) -> np.ndarray:
 
 def _normals(edges, patch):
     e_next, e_prev = edges
-    return np.einsum("naij,naj->nai", patch.mirror, np.cross(e_next, e_prev).sum(axis=2)) / patch.scale[:, :, None]
+    return np.diagonal(patch.mirror, 0, 2, 3) * cross(e_next, e_prev).sum(axis=2) / patch.scale[:, :, None]
 
 
 def _patch_edges(x_p, patch, k):
     """The edges x_next - x_a and x_prev - x_a (n, k, V, 3) of the facets at each corner a of the
     segments (zero where an incidence is padding)."""
-    rows = np.arange(len(x_p))[:, None, None]
-    corner = np.broadcast_to(np.arange(k)[None, :, None], patch.mask.shape)
-    e_next = np.where(patch.mask[..., None], x_p[rows, patch.next] - x_p[rows, corner], 0.0)
-    e_prev = np.where(patch.mask[..., None], x_p[rows, patch.prev] - x_p[rows, corner], 0.0)
+    n, P = x_p.shape[:2]
+    flat, first = x_p.reshape(n * P, 3), (np.arange(n) * P)[:, None, None]
+    corner, mask = x_p[:, :k, None], patch.mask[..., None]
+    e_next = np.where(mask, flat.take(first + patch.next, axis=0) - corner, 0.0)
+    e_prev = np.where(mask, flat.take(first + patch.prev, axis=0) - corner, 0.0)
     return e_next, e_prev
+
+
+def _dot(a, b, axis=-1):
+    return (a * b).sum(axis=axis)
 
 
 def _frame(kind, xi, g, nu, x_seg):
@@ -257,51 +228,59 @@ def _frame(kind, xi, g, nu, x_seg):
     [T_1, T_2, m] of the projection's residual over (xi, g)."""
     N, dN = kind.shape(xi)
     dN_t = dN.transpose(0, 2, 1)
-    m, m_b = _at(N, nu), dN_t @ nu  # batched products: several times faster than einsum here
+    m, m_b = (N[:, None, :] @ nu)[:, 0], dN_t @ nu  # batched products: several times faster than einsum here
     T = dN_t @ x_seg + g[:, None, None] * m_b
     return N, dN, m, m_b, np.stack([T[:, 0], T[:, 1], m], axis=2)  # columns T_1, T_2, m
 
 
-def _solve3(J, r):
-    """x with J x = r for a stack of 3 x 3 systems (n, 3, 3), by Cramer's rule (the columns' cross
-    products: several times faster than LAPACK on so small systems)."""
-    c0, c1, c2 = J[:, :, 0], J[:, :, 1], J[:, :, 2]
-    c12 = np.cross(c1, c2)
-    det = np.einsum("ni,ni->n", c0, c12)
-    return np.column_stack([np.einsum("ni,ni->n", r, c12), np.einsum("ni,ni->n", c0, np.cross(r, c2)),
-                            np.einsum("ni,ni->n", c0, np.cross(c1, r))]) / det[:, None]
+def _solve3(c0, c1, c2, r):
+    """x (3, n) with [c0, c1, c2] x = r for a stack of 3 x 3 systems given by their columns (3, n),
+    by Cramer's rule (several times faster than LAPACK on so small systems)."""
+    c12 = cross(c1, c2, 0)
+    return np.stack([_dot(r, c12, 0), _dot(c0, cross(r, c2, 0), 0), _dot(c0, cross(c1, r, 0), 0)]) / _dot(c0, c12, 0)
 
 
-def _at(N, values):
-    """sum_a N_a values_a (n, 3) of weights N (n, k) and nodal values (n, k, 3)."""
-    return (N[:, None, :] @ values)[:, 0]
+def _polynomial(c, a, b):
+    """y = sum_a N_a(xi) v_a and its derivatives y_,1, y_,2 (w, n) at xi = (a, b), from the
+    coefficients c (terms, w, n) of the shape functions' polynomial (``segments.py``)."""
+    y, y_1, y_2 = c[0] + a * c[1] + b * c[2], c[1], c[2]
+    if len(c) == 4:  # the bilinear term
+        y, y_1, y_2 = y + (a * b) * c[3], y_1 + b * c[3], y_2 + a * c[3]
+    return y, y_1, y_2
 
 
 def _feet(x_s, nu, x_seg, kind, start, iterations, tolerance):
     """Newton on R(xi, g) = x_s - y(xi) - g m(xi) = 0 from ``start`` (default: the segments'
     centres): the feet xi (n, 2), g (n,) and whether each converged (n,). A point whose foot
-    is clipped to the segment's bounds is far outside it, and stops there."""
-    n = len(x_s)
-    size = np.sqrt(np.linalg.norm(np.cross(x_seg[:, 2] - x_seg[:, 0], x_seg[:, -1] - x_seg[:, 1]), axis=1))
+    is clipped to the segment's bounds is far outside it, and stops there. y and m, with their
+    derivatives, are the polynomials in xi of the shape functions, over the points still moving
+    (arrays by component first: contiguous rows)."""
+    n, (lo, hi) = len(x_s), kind.bounds
+    size = np.sqrt(np.linalg.norm(cross(x_seg[:, 2] - x_seg[:, 0], x_seg[:, -1] - x_seg[:, 1]), axis=1))
+    c = np.tensordot(kind.polynomial, np.concatenate([x_seg, nu], axis=2).transpose(1, 2, 0), axes=(1, 0))
     xi = np.tile(np.asarray(kind.centre, dtype=float), (n, 1)) if start is None else start.copy()
-    N, _ = kind.shape(xi)
-    m = _at(N, nu)
-    g = np.einsum("ni,ni->n", x_s - _at(N, x_seg), m) / np.einsum("ni,ni->n", m, m)
-    converged = np.zeros(n, dtype=bool)
-    moving = np.arange(n)
-    for _ in range(iterations):  # Newton on (xi, g), on the points still moving
-        N, _, m, _, J = _frame(kind, xi[moving], g[moving], nu[moving], x_seg[moving])
-        residual = x_s[moving] - _at(N, x_seg[moving]) - g[moving, None] * m
-        step = _solve3(J, residual)
-        trial = xi[moving] + step[:, :2]
-        xi[moving], g[moving] = np.clip(trial, *kind.bounds), g[moving] + step[:, 2]
-        small = (np.abs(step[:, :2]).max(axis=1) < tolerance) & (np.abs(step[:, 2]) < tolerance * size[moving])
-        converged[moving[small]] = True
-        clipped = np.any(trial != xi[moving], axis=1)  # far outside the segment: no contact with it
-        moving = moving[~(small | clipped)]
+    a, b, xs = xi[:, 0].copy(), xi[:, 1].copy(), np.ascontiguousarray(x_s.T)
+    f = _polynomial(c, a, b)[0]
+    g = _dot(xs - f[:3], f[3:], 0) / _dot(f[3:], f[3:], 0)
+    converged, moving, g_out = np.zeros(n, dtype=bool), np.arange(n), g.copy()
+    for _ in range(iterations):
         if not len(moving):
             break
-    return xi, g, converged
+        f, f_1, f_2 = _polynomial(c, a, b)
+        m = f[3:]
+        step = _solve3(f_1[:3] + g * f_1[3:], f_2[:3] + g * f_2[3:], m, xs - f[:3] - g * m)
+        trial_a, trial_b = a + step[0], b + step[1]
+        a, b, g = np.clip(trial_a, lo, hi), np.clip(trial_b, lo, hi), g + step[2]
+        small = (np.maximum(np.abs(step[0]), np.abs(step[1])) < tolerance) & (np.abs(step[2]) < tolerance * size)
+        done = small | (trial_a != a) | (trial_b != b)  # clipped: far outside the segment, no contact with it
+        if done.any():
+            converged[moving[small]] = True
+            index, keep = moving[done], ~done
+            xi[index, 0], xi[index, 1], g_out[index] = a[done], b[done], g[done]
+            moving, a, b, g, size = moving[keep], a[keep], b[keep], g[keep], size[keep]
+            c, xs = c[..., keep], xs[:, keep]
+    xi[moving, 0], xi[moving, 1], g_out[moving] = a, b, g
+    return xi, g_out, converged
 
 
 def _add_derivatives(result, N_s, P, patch, edges, g, dN, m_b, J, length):
@@ -310,23 +289,11 @@ def _add_derivatives(result, N_s, P, patch, edges, g, dN, m_b, J, length):
     frame at the feet."""
     (n, k), k_s = result.N.shape, N_s.shape[1]
     N, normal = result.N, result.normal
-    # dnu_a / dq over the patch nodes (n, k, 3, P, 3):
-    # d[e_n x e_p] = -[e_p]_x (dx_next - dx_a) + [e_n]_x (dx_prev - dx_a)
-    dnu = np.zeros((n, k, 3, P, 3))
-    view = dnu.transpose(0, 1, 3, 2, 4)  # (n, k, P, 3, 3): the block of each patch node
-    weight = (patch.mask / patch.scale[:, :, None])[..., None, None]
-    skew_next, skew_prev = _skew(edges[0]), _skew(edges[1])
-    point = np.broadcast_to(np.arange(n)[:, None, None], patch.mask.shape)
-    corner = np.broadcast_to(np.arange(k)[None, :, None], patch.mask.shape)
-    for target, block in ((patch.next, -skew_prev), (patch.prev, skew_next), (corner, skew_prev - skew_next)):
-        np.add.at(view, (point, corner, target), weight * block)
-    dnu = np.einsum("naij,najq->naiq", patch.mirror, dnu.reshape(n, k, 3, 3 * P))
-
     eye3, nq = np.eye(3), 3 * (k_s + P)
     Rq = np.zeros((n, 3, nq))
     Rq[:, :, : 3 * k_s] = (N_s[:, None, :, None] * eye3[None, :, None, :]).reshape(n, 3, 3 * k_s)
     Rq[:, :, 3 * k_s: 3 * (k_s + k)] = -(N[:, None, :, None] * eye3[None, :, None, :]).reshape(n, 3, 3 * k)
-    dM = np.einsum("na,naiq->niq", N, dnu)  # sum_a N_a dnu_a
+    dM = _normal_derivative(N, P, patch, edges)
     Rq[:, :, 3 * k_s:] -= g[:, None, None] * dM
     dz = np.linalg.solve(J, Rq)  # (n, 3, nq): dxi_1, dxi_2, dg
     dm = np.einsum("nbi,nbq->niq", m_b, dz[:, :2])
@@ -335,6 +302,22 @@ def _add_derivatives(result, N_s, P, patch, edges, g, dN, m_b, J, length):
     projector = eye3 - normal[:, :, None] * normal[:, None, :]
     result.dnormal = np.einsum("nij,njq->niq", projector, dm) / length[:, None, None]
     result.dN = np.einsum("nab,nbq->naq", dN, dz[:, :2])
+
+
+def _normal_derivative(N, P, patch, edges):
+    """sum_a N_a dnu_a / dq over the patch nodes (n, 3, 3P), with
+    d[e_n x e_p] = -[e_p]_x (dx_next - dx_a) + [e_n]_x (dx_prev - dx_a)."""
+    n, k = N.shape
+    skew_next, skew_prev = _skew(edges[0]), _skew(edges[1])  # (n, k, V, 3, 3)
+    weight = (N[:, :, None] * patch.mask / patch.scale[:, :, None])[..., None, None]
+    weight = weight * np.diagonal(patch.mirror, 0, 2, 3)[:, :, None, :, None]  # the mirror, on the rows
+    dM = np.zeros((n, P, 9))
+    dM[:, :k] = (weight * (skew_prev - skew_next)).sum(axis=2).reshape(n, k, 9)  # the corners themselves
+    index = (np.arange(n) * P)[:, None, None] + np.concatenate([patch.next, patch.prev], axis=2)
+    blocks = np.concatenate([-weight * skew_prev, weight * skew_next], axis=2).reshape(-1, 9)
+    for c in range(9):  # the neighbours along each facet, summed by bincount
+        dM[:, :, c] += np.bincount(index.ravel(), weights=blocks[:, c], minlength=n * P).reshape(n, P)
+    return dM.reshape(n, P, 3, 3).transpose(0, 2, 1, 3).reshape(n, 3, 3 * P)
 
 
 def traction(weight: np.ndarray, pressure: np.ndarray, stiffness: np.ndarray, proj: Projection, N_s: np.ndarray,

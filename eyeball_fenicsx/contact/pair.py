@@ -14,7 +14,8 @@ contact. Nothing is remembered between evaluations but where each projection's N
 (the foot found last time on the same segment, until the next search).
 
 The matrix has room for every (slave facet, segment) pair a search finds; it is preallocated
-anew when a search finds a pair it has no room for, and at the first increment of every step,
+anew when a search finds a pair it has no room for, and at the first increment of every step
+(unless no tangent was assembled in it yet and the search found the pairs it was made for),
 so that a step's arithmetic depends on the state it starts from only: a step resumed from a
 checkpoint (output/checkpoint.py, which keeps the displacement of the last search and its
 motion) repeats the interrupted run's to the bit.
@@ -108,7 +109,7 @@ class ContactPair(ContactFeature):
 
         # the master segments near this rank's slave points, exchanged at every search (master.py)
         self.master = DistributedMaster(comm, tables, master, self.symmetry)
-        self._unreserved, self._new_step = True, False
+        self._unreserved, self._new_step, self._assembled = True, False, False
         self.motion, self.pattern_keys = 0.0, None
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._search()
@@ -208,16 +209,17 @@ class ContactPair(ContactFeature):
         return rows, r, K, proj.normal
 
     def _gaps_along(self, du):
-        """The points that project on a segment now, and their gaps at the state changed by
-        fraction * du as a function of fraction (a number, or one per point) and of which points
-        (default: all), each projection started from the point's foot now."""
+        """The points that project on a segment now, their gaps now (the selection's), and their
+        gaps at the state changed by fraction * du as a function of fraction (a number, or one per
+        point) and of which points (default: all), each projection started from the point's foot now."""
         sel = self._selection_now()
         point, seg = sel.point, sel.target
         ghosted = self._ghosted(du)
-        xs = self._slave_points()[point]
+        positions = self._selection[0]  # the current ones, at which the selection was made
+        xs = positions[0][point]
         dxs = self._slave_points(ghosted[self.facet_dofs])[point]
         nodes = self.table.patch.nodes[seg]
-        xm, dxm = self.master_positions()[nodes], self._gather_master(du)[nodes]
+        xm, dxm = positions[1][nodes], self._gather_master(du)[nodes]
         rows = self.table.patch.rows(seg)
 
         def gaps(fraction, index=slice(None)):
@@ -225,7 +227,7 @@ class ContactPair(ContactFeature):
             return project(xs[index] + f[:, None] * dxs[index], self.point_N[point[index]],
                            xm[index] + f[:, None, None] * dxm[index], rows.rows(index), self.kind,
                            start=sel.projection.xi[index]).g
-        return point, gaps
+        return point, sel.g, gaps
 
     def _loaded_nodes(self, point):
         """How many slave nodes (over all ranks) belong to a facet with a loaded point (collective:
@@ -236,7 +238,9 @@ class ContactPair(ContactFeature):
     # -- the matrix pattern --------------------------------------------------------------
     def _candidate_elements(self):
         """The distinct (slave facet, segment) candidate pairs."""
-        return np.unique(np.column_stack([self.point_facet[self.cand_point], self.cand_seg]), axis=0)
+        size = np.int64(len(self.table.segments))
+        keys = np.unique(self.point_facet[self.cand_point].astype(np.int64) * size + self.cand_seg)
+        return np.column_stack([keys // size, keys % size])
 
     def _keys(self):
         """The (row node, column node) pairs the candidates may couple, as int64 keys."""
@@ -251,6 +255,7 @@ class ContactPair(ContactFeature):
         """Zeros in A for every node pair the candidates may couple, once after each search:
         PETSc drops the preallocated room a final assembly left unused, so a point that meets a
         new segment later in the increment would cost a malloc."""
+        self._assembled = True
         if not self._unreserved:
             return
         keys = self.candidate_keys
@@ -267,9 +272,13 @@ class ContactPair(ContactFeature):
         self._search()
         self._unreserved = True
         keys = self.candidate_keys = self._keys()
-        if not self._new_step and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
+        # a new step's matrix is made anew, unless no tangent went into the one there is and
+        # it was made for these very keys (the first increment after ``setup``)
+        anew = self._new_step and (self._assembled or not np.array_equal(keys, self.pattern_keys))
+        self._new_step = False
+        if not anew and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
             return False
-        self.pattern_keys, self._new_step = keys, False
+        self.pattern_keys, self._assembled = keys, False
         return True
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray]:

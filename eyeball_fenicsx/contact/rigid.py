@@ -156,7 +156,7 @@ class RigidContact(ContactFeature):
         def gaps(fraction, index=slice(None)):
             y, dy = x[index], dx[index]
             return self.shape.gap(y + np.broadcast_to(fraction, len(y))[:, None] * dy, self.shift)[0]
-        return point, gaps
+        return point, gaps(0.0), gaps
 
     def _loaded_nodes(self, point):
         return int(self.solid.comm.allreduce(len(point)))

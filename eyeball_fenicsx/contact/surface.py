@@ -14,8 +14,8 @@ from petsc4py import PETSc
 from .. import checks
 from ..errors import SceneError
 from ..mechanics.solid import MixedSolid
-from .geometry import Quad, Triangle
 from .policy import PENALTY_FACTOR
+from .segments import Quad, Triangle
 
 
 class SolidTables:

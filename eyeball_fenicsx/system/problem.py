@@ -83,6 +83,7 @@ class Problem:
 
         self.b_w = fem.petsc.create_vector(self.R_form)
         self.scratch = self.b_w.duplicate() if self.nodal_residuals else None  # see F
+        self._nnz = None
         self.A = self._create_matrix()
         self.x, self.b = self.A.createVecs()
         self.guard = JacobianGuard(solid)
@@ -129,21 +130,30 @@ class Problem:
         return np.sort(rows[rows < self.n_owned])
 
     # -- the matrix ----------------------------------------------------------------------
+    def _form_nnz(self):
+        """Entries per owned row (diagonal block, off-diagonal block) of the forms' pattern and the
+        borders: computed once (the mesh's pattern never changes), copied for each matrix."""
+        if self._nnz is None:
+            n, m = self.n_owned, self.m
+            pattern = fem.create_sparsity_pattern(self.J_form)
+            pattern.assemble()
+            graph = pattern.graph
+            rows = np.repeat(np.arange(len(graph.offsets) - 1), np.diff(graph.offsets))
+            owned = rows < n  # the pattern also lists ghost rows
+            d_nnz = np.zeros(n + self.n_extra_local, dtype=PETSc.IntType)
+            o_nnz = np.zeros_like(d_nnz)
+            d_nnz[:n] = np.bincount(rows[owned & (graph.array < n)], minlength=n)
+            o_nnz[:n] = np.bincount(rows[owned], minlength=n) - d_nnz[:n]
+            if m:  # every row may meet each border column; border rows may be full
+                (d_nnz if self.comm.rank == self.last else o_nnz)[:n] += m
+                d_nnz[n:] = n + m
+                o_nnz[n:] = self.n_global - n
+            self._nnz = d_nnz, o_nnz
+        return self._nnz[0].copy(), self._nnz[1].copy()
+
     def _create_matrix(self):
         n, m, comm = self.n_owned, self.m, self.comm
-        pattern = fem.create_sparsity_pattern(self.J_form)
-        pattern.assemble()
-        graph = pattern.graph
-        rows = np.repeat(np.arange(len(graph.offsets) - 1), np.diff(graph.offsets))
-        owned = rows < n  # the pattern also lists ghost rows
-        d_nnz = np.zeros(n + self.n_extra_local, dtype=PETSc.IntType)
-        o_nnz = np.zeros_like(d_nnz)
-        d_nnz[:n] = np.bincount(rows[owned & (graph.array < n)], minlength=n)
-        o_nnz[:n] = np.bincount(rows[owned], minlength=n) - d_nnz[:n]
-        if m:  # every row may meet each border column; border rows may be full
-            (d_nnz if comm.rank == self.last else o_nnz)[:n] += m
-            d_nnz[n:] = n + m
-            o_nnz[n:] = self.n_global - n
+        d_nnz, o_nnz = self._form_nnz()
         rows, cols = self._coupling()
         d_extra = np.bincount(rows[(cols >= self.offset) & (cols < self.offset + n)] - self.offset, minlength=n)
         d_nnz[:n] += d_extra[:n]
@@ -164,9 +174,10 @@ class Problem:
         owner = np.searchsorted(ranges, pairs[:, 0], side="right") - 1
         order = np.argsort(owner, kind="stable")
         chunks = np.split(pairs[order], np.searchsorted(owner[order], np.arange(1, self.comm.size)))
-        mine = np.concatenate(self.comm.alltoall(chunks))
-        mine = np.unique(mine, axis=0) if len(mine) else mine.reshape(0, 2)
-        return mine[:, 0], mine[:, 1]
+        mine = np.concatenate(self.comm.alltoall(chunks)).reshape(-1, 2)
+        width = np.int64(self.n_global + self.m)
+        keys = np.unique(mine[:, 0] * width + mine[:, 1])  # the distinct entries, sorted by row, then column
+        return keys // width, keys % width
 
     def update_pattern(self) -> bool:
         """Start of an increment: let the active sets search; re-preallocate if their coupling
