@@ -6,7 +6,9 @@ demos/segmental_buckle.toml, with one surgical parameter changed and nothing els
 
 * the encircling band's circumference reduction, 2 to 14 mm (``band.0.reduction``; 8 as shipped);
 * its width, 1.5 and 4 mm (``mesh.band_width``; 2.5), and its position, 11 and 15 mm behind the
-  limbus (``mesh.band_position``; 12.5);
+  limbus (``mesh.band_position``; 12.5), the detachment left where the shipped scene has it
+  (the builder centres a detachment without ``polar_deg`` under the band: the surgeon moves
+  the band, not the retina; centred under a band at 11 mm it would reach the ora serrata);
 * a drainage step after the sutures: a fourth step "drain" with an ``[[injection]]`` of -100 mm^3
   into the cavity "vitreous" (the half model's half of 0.2 mL; README.md, "Contact, sutures, bands");
 * the segmental tire's sutures tied by 0.1 to 1.0 mm (``buckle_sutures.shortening``; 0.4);
@@ -54,6 +56,7 @@ from mpi4py import MPI
 from provenance import machine_record
 
 from eyeball_fenicsx.errors import ConvergenceError, SceneError
+from eyeball_fenicsx.meshing.builders.buckle_placement import buckle_layout
 from eyeball_fenicsx.output.console import increment_lines, silence
 from eyeball_fenicsx.output.files import write_json_atomic, write_text_atomic
 from eyeball_fenicsx.scene.loader import load_scene
@@ -91,13 +94,30 @@ def variants():
     matrix = [Variant(f"reduction-{mm:g}", "encircling", {"band.0.reduction": mm}, series="reduction", value=mm)
               for mm in (2.0, 5.0, 8.0, 11.0, 14.0)]
     matrix += [Variant(f"band-width-{mm:g}", "encircling", {"mesh.band_width": mm}) for mm in (1.5, 4.0)]
-    matrix += [Variant(f"band-position-{mm:g}", "encircling", {"mesh.band_position": mm}) for mm in (11.0, 15.0)]
+    detachment = shipped_detachment("encircling")
+    matrix += [Variant(f"band-position-{mm:g}", "encircling", {"mesh.band_position": mm, "mesh.detachment": detachment})
+               for mm in (11.0, 15.0)]
     matrix += [Variant(f"drain-{DRAINED_MM3:g}", "encircling", drain_mm3=DRAINED_MM3)]
     matrix += [Variant(f"segmental-{mm:g}", "segmental", {"buckle_sutures.shortening": mm}, series="shortening",
                        value=mm) for mm in (0.1, 0.4, 0.8, 1.0)]
     matrix += [Variant(f"tire-height-{mm:g}", "segmental", {"mesh.tire.height": mm}) for mm in (0.5, 2.0)]
     matrix += [Variant(f"tire-arc-{deg:g}", "segmental", {"mesh.tire.arc_deg": deg}) for deg in (30.0, 90.0)]
     return matrix
+
+
+def shipped_detachment(scene):
+    """The shipped scene's detachment with its centre written out (``polar_deg``: where the mesh
+    builder centres it, under the buckle as shipped), so that a variant moving the buckle keeps it."""
+    with open(SCENES[scene], "rb") as f:
+        mesh = dict(tomllib.load(f)["mesh"])
+    mesh.pop("builder")
+    return buckle_layout(**mesh).detachment
+
+
+def described(changes):
+    """The changes in words: "path = value"; a detachment by its centre, kept as shipped."""
+    return [f"{path}.polar_deg = {value['polar_deg']:.1f} (as shipped)" if isinstance(value, dict)
+            else f"{path} = {value:g}" for path, value in changes.items()]
 
 
 def strip_knobs(data):
@@ -112,7 +132,11 @@ def scene_data(variant, base, n_circ):
     """The variant's scene (a new dict) and a description of what differs from ``base``."""
     data = copy.deepcopy(base)
     for path, value in variant.changes.items():
-        set_parameter(data, path, value)
+        if isinstance(value, dict):  # a table, set whole (set_parameter sets a value)
+            section, key = path.split(".")
+            data[section][key] = dict(value)
+        else:
+            set_parameter(data, path, value)
     if variant.drain_mm3:
         data["step"].append({"name": "drain"})
         data.setdefault("injection", []).append({"cavity": "vitreous", "volume": -variant.drain_mm3, "step": "drain"})
@@ -121,7 +145,7 @@ def scene_data(variant, base, n_circ):
     elif variant.drain_mm3:
         changed = f"drain step: {-variant.drain_mm3:g} mm^3 from the vitreous"
     else:
-        changed = ", ".join(f"{path} = {value:g}" for path, value in variant.changes.items())
+        changed = ", ".join(described(variant.changes))
     set_parameter(data, "mesh.n_circ", n_circ)
     if "file" in data["mesh"]:  # the scene is written elsewhere: its mesh path must not depend on that
         data["mesh"]["file"] = os.path.join(os.path.dirname(os.path.abspath(SCENES[variant.scene])),
@@ -304,7 +328,7 @@ def main():
     if args.list:
         if comm.rank == 0:
             for v in matrix:
-                changes = [f"{k} = {x:g}" for k, x in v.changes.items()]
+                changes = described(v.changes)
                 changes += [f"drain step, {-v.drain_mm3:g} mm^3"] if v.drain_mm3 else []
                 print(f"{v.name:<20}{v.scene:<12}{', '.join(changes)}")
         return
