@@ -82,7 +82,7 @@ class Problem:
         self.lgmap = PETSc.LGMap().create(local_to_global, comm=comm)
 
         self.b_w = fem.petsc.create_vector(self.R_form)
-        self.scratch = self.b_w.duplicate() if self.nodal_residuals else None  # see F
+        self.scratch = self.b_w.duplicate()  # the prescribed values' misfit (F)
         self._nnz = None
         self.A = self._create_matrix()
         self.x, self.b = self.A.createVecs()
@@ -290,25 +290,24 @@ class Problem:
                 self.inverted = (det_min, where)
             b.set(np.inf)
             return
+        with self.scratch.localForm() as sl:  # the Dirichlet rows' misfit x - g
+            sl.set(0.0)
+        set_bc(self.scratch, self.bcs, self.solid.w.vector, -1.0)
         with self.b_w.localForm() as bl:
             bl.set(0.0)
         assemble_vector(self.b_w, self.R_form)
-        apply_lifting(self.b_w, [self.J_form], [self.bcs], x0=[self.solid.w.vector], scale=-1.0)
+        # the lifting adds -J (g - x) over the Dirichlet columns: exactly nothing once x = g there
+        # (every Newton iterate after an increment's first), so it is skipped then
+        if self.comm.allreduce(bool(np.any(self.scratch.array_r[self.bc_rows] != 0.0)), op=MPI.LOR):
+            apply_lifting(self.b_w, [self.J_form], [self.bcs], x0=[self.solid.w.vector], scale=-1.0)
         self.b_w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        if not self.nodal_residuals:  # Dirichlet rows: x - g, in place as in DOLFINx
-            set_bc(self.b_w, self.bcs, self.solid.w.vector, -1.0)
         b.array[: self.n_owned] = self.b_w.array_r[: self.n_owned]
         b.array[self.n_owned:] = self._border_residuals()
-        if not self.nodal_residuals:  # nothing was added by global index: no VecAssembly, no scratch vector
-            return
-        for f in self.nodal_residuals:
-            f.add_to_residual(b)
-        b.assemble()
-        # Dirichlet rows: x - g, over whatever the custom features added to them
-        with self.scratch.localForm() as sl:
-            sl.set(0.0)
-        set_bc(self.scratch, self.bcs, self.solid.w.vector, -1.0)
-        b.array[self.bc_rows] = self.scratch.array_r[self.bc_rows]
+        if self.nodal_residuals:  # added by global index
+            for f in self.nodal_residuals:
+                f.add_to_residual(b)
+            b.assemble()
+        b.array[self.bc_rows] = self.scratch.array_r[self.bc_rows]  # over whatever was added to them
 
     def _border_residuals(self):
         values = [f.unknown_residuals() for f in self.global_unknowns]
