@@ -35,6 +35,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..arrays import distinct_pairs
 from ..errors import SceneError
 from ..mechanics.solid import MixedSolid
 from .base import ContactFeature, Selection
@@ -238,9 +239,7 @@ class ContactPair(ContactFeature):
     # -- the matrix pattern --------------------------------------------------------------
     def _candidate_elements(self):
         """The distinct (slave facet, segment) candidate pairs."""
-        size = np.int64(len(self.table.segments))
-        keys = np.unique(self.point_facet[self.cand_point].astype(np.int64) * size + self.cand_seg)
-        return np.column_stack([keys // size, keys % size])
+        return np.column_stack(distinct_pairs(self.point_facet[self.cand_point], self.cand_seg))
 
     def _keys(self):
         """The (row node, column node) pairs the candidates may couple, as int64 keys."""

@@ -39,6 +39,7 @@ from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, s
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..arrays import distinct_pairs
 from ..features.base import Feature
 from ..features.roles import (
     ActiveSet,
@@ -175,9 +176,7 @@ class Problem:
         order = np.argsort(owner, kind="stable")
         chunks = np.split(pairs[order], np.searchsorted(owner[order], np.arange(1, self.comm.size)))
         mine = np.concatenate(self.comm.alltoall(chunks)).reshape(-1, 2)
-        width = np.int64(self.n_global + self.m)
-        keys = np.unique(mine[:, 0] * width + mine[:, 1])  # the distinct entries, sorted by row, then column
-        return keys // width, keys % width
+        return distinct_pairs(mine[:, 0], mine[:, 1])
 
     def update_pattern(self) -> bool:
         """Start of an increment: let the active sets search; re-preallocate if their coupling
