@@ -25,8 +25,9 @@ The features are sorted once, when the problem is built, by the roles they play
 (``features/roles.py``), into lists in scene order; each callback loops over the lists it
 needs, in that order, so the terms are summed as the scene lists them. The nodal roles
 (``nodal_residuals``: residual by global index; ``nodal_tangents``: tangent by global index) cost what
-they need only when a scene holds them: without them the residual's Dirichlet rows are set in
-place as DOLFINx does, and the matrix may not grow beyond its preallocation.
+they need only when a scene holds them: without them the residual needs no assembly by global
+index, and the matrix may not grow beyond its preallocation. Either way the residual's Dirichlet
+rows are the misfit x - g, written over whatever was added to them.
 """
 from __future__ import annotations
 
