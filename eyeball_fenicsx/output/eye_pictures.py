@@ -7,9 +7,11 @@ after the ``EyeMeasures`` (output/measures.py) whose results it draws: after eac
 ``section_<step>.png`` (the deformed meridional section coloured by the von Mises stress the
 measures just interpolated) and, with a detachment, ``retina_gap_<step>.png`` (the gap they just
 measured, flattened), and at the end of a run ``eye_measures.png`` (the scalar measures of that
-run's steps, from its summary). Each figure has fixed margins (no layout pass) and is rendered
-once, on its own Agg canvas (output/files.py); the section's (``SectionPicture``), like the outer
-surface's (output/eye_surface.py), is built for the first step and drawn again after the others.
+run's steps, from its summary). After a step the ranks draw at the same time: rank 0 the outer
+surface, the last rank the section and the gap map. Each figure has fixed margins (no layout
+pass) and is rendered once, on its own Agg canvas (output/files.py); the section's
+(``SectionPicture``), like the outer surface's (output/eye_surface.py), is built for the first
+step and drawn again after the others.
 """
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ TISSUE_COLOURS = {"cornea": "lightskyblue", "sclera": "gainsboro", "ciliary_body
 
 
 def meridional_section(mesh_data: MeshData, tolerance: float = 1e-9, solid: MixedSolid | None = None,
-                       field: fem.Function | None = None) -> tuple:
+                       field: fem.Function | None = None, root: int = 0) -> tuple:
     """Faces of the mesh in the plane y = 0 (the section through the optic axis at azimuth 0 and 180).
 
     Collective.
@@ -48,9 +50,10 @@ def meridional_section(mesh_data: MeshData, tolerance: float = 1e-9, solid: Mixe
         tolerance: distance (mesh units) under which a node is on the plane.
         solid: if given, the faces are drawn in its current (deformed) configuration.
         field: a cell-wise (DG0) function whose value each face takes (von Mises stress).
+        root: the rank that receives the faces.
 
     Returns:
-        On rank 0, ``(polygons, regions, values)``: the faces' corners in the (x, z) plane in
+        On rank ``root``, ``(polygons, regions, values)``: the faces' corners in the (x, z) plane in
         cyclic order, shape ``(count, 4, 2)``, the region name of each face and the field's
         value on it (None without a field); ``(None, None, None)`` elsewhere.
     """
@@ -59,7 +62,7 @@ def meridional_section(mesh_data: MeshData, tolerance: float = 1e-9, solid: Mixe
     facets = np.arange(msh.topology.index_map(tdim - 1).size_local, dtype=np.int32)
     x = msh.geometry.x[quad_nodes(msh, facets)]
     corners, regions, values = gather_faces(mesh_data, facets[np.all(np.abs(x[..., 1]) < tolerance, axis=1)],
-                                            solid, field)
+                                            solid, field, root)
     if corners is None:
         return None, None, None
     return corners[..., [0, 2]], regions, values if field is not None else None
@@ -128,8 +131,7 @@ class SectionPicture:
         save_figure_atomic(self._figure, path, dpi=110)
 
 
-def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title: str | None = None,
-                       picture: SectionPicture | None = None) -> None:
+def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title: str | None = None) -> None:
     """Draw the deformed meridional section coloured by the von Mises stress (MPa), as the
     seed shows its results. Collective; rank 0 writes the file.
 
@@ -137,12 +139,11 @@ def stress_section_png(solid: MixedSolid, mises: fem.Function, path: str, title:
         solid: the solved ``MixedSolid`` (its current displacement deforms the section).
         mises: a cell-wise (DG0) function of the von Mises stress.
         path: the .png file to write.
-        picture: the figure to draw again (a new one if None).
     """
     polygons, _, values = meridional_section(solid.mesh_data, solid=solid, field=mises)
     if polygons is None or not len(polygons):  # not rank 0, or no face in the plane y = 0
         return
-    (picture or SectionPicture()).draw(polygons, values, path, title)
+    SectionPicture().draw(polygons, values, path, title)
 
 
 def retina_gap_png(azimuth: np.ndarray, polar: np.ndarray, gap: np.ndarray, path: str, detached: float,
@@ -206,18 +207,25 @@ class EyePictures(Observer):
 
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
         """Collective: the outer surface and the section coloured by the stress, and the retina's
-        gap map, of a converged step, as the measures just measured them."""
+        gap map, of a converged step, as the measures just measured them. Each is gathered
+        first, then drawn at once: the surface on rank 0, the other two on the last rank (one
+        rank draws all three); every file is written when this returns, on every rank."""
         if not self.out_dir or not converged:
             return
         files = {kind: os.path.join(self.out_dir, name) for kind, name in step_pictures(step).items()}
-        self._surface.draw(self.measures.mises, files["surface"],
-                           title=f"{self.scene}, step {step}: von Mises stress (MPa)")
-        stress_section_png(self.solid, self.measures.mises, files["section"],
-                           title=f"{self.scene}, step {step}: von Mises stress (MPa)", picture=self._section)
-        X, gap = self.measures.retina_gap_map()
+        title = f"{self.scene}, step {step}: von Mises stress (MPa)"
+        last = self.solid.comm.size - 1
+        surface = self._surface.faces(self.measures.mises)
+        section, _, mises = meridional_section(self.solid.mesh_data, solid=self.solid, field=self.measures.mises,
+                                               root=last)
+        X, gap = self.measures.retina_gap_map(root=last)
+        self._surface.draw(surface, files["surface"], title)
+        if section is not None and len(section):
+            self._section.draw(section, mises, files["section"], title)
         if X is not None:
             retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
                            files["retina_gap"], DETACHED_GAP, title=f"{self.scene}, step {step}: the detached retina")
+        self.solid.comm.Barrier()  # the run's page (output/report.py, rank 0) shows them next
 
     def finish(self, summary: dict) -> None:
         if self.out_dir and self.solid.comm.rank == 0:

@@ -68,8 +68,8 @@ def quad_nodes(msh, facets: np.ndarray) -> np.ndarray:
 
 
 def gather_faces(mesh_data: MeshData, facets: np.ndarray, solid: MixedSolid | None = None,
-                 field: fem.Function | None = None) -> tuple:
-    """Corners, region names and field values of owned quadrilateral facets, gathered on rank 0.
+                 field: fem.Function | None = None, root: int = 0) -> tuple:
+    """Corners, region names and field values of owned quadrilateral facets, gathered on rank ``root``.
 
     Collective.
 
@@ -80,8 +80,8 @@ def gather_faces(mesh_data: MeshData, facets: np.ndarray, solid: MixedSolid | No
         field: a cell-wise (DG0) function whose value each face takes (that of its cell).
 
     Returns:
-        On rank 0, ``(corners, regions, values)``: shape ``(count, 4, 3)`` in cyclic order, the
-        region name of each face's cell, and the field's values (NaN without a field);
+        On rank ``root``, ``(corners, regions, values)``: shape ``(count, 4, 3)`` in cyclic order,
+        the region name of each face's cell, and the field's values (NaN without a field);
         ``(None, None, None)`` elsewhere.
     """
     msh = mesh_data.mesh
@@ -99,8 +99,8 @@ def gather_faces(mesh_data: MeshData, facets: np.ndarray, solid: MixedSolid | No
         u = solid.w.sub(0)
         corners = corners + u.eval(corners.reshape(-1, 3), np.repeat(cells, 4))[:, :3].reshape(corners.shape)
     values = field.x.array[cells] if field is not None else np.full(len(cells), np.nan)
-    gathered = msh.comm.gather((corners, regions, values), root=0)
-    if msh.comm.rank != 0:
+    gathered = msh.comm.gather((corners, regions, values), root=root)
+    if msh.comm.rank != root:
         return None, None, None
     return (np.concatenate([g[0] for g in gathered]).reshape(-1, 4, 3), [name for g in gathered for name in g[1]],
             np.concatenate([g[2] for g in gathered]))
@@ -248,8 +248,13 @@ class OuterSurface:
         self.axes = mirror_axes(solid)
         self.picture = SurfacePicture()
 
-    def draw(self, mises: fem.Function, path: str, title: str | None = None) -> None:
-        """The picture of the current state, coloured by ``mises`` (DG0). Collective; rank 0 writes."""
-        corners, regions, values = gather_faces(self.solid.mesh_data, self.facets, self.solid, mises)
+    def faces(self, mises: fem.Function) -> tuple:
+        """The faces of the current state and their ``mises`` (DG0), as ``gather_faces`` gathers
+        them on rank 0. Collective."""
+        return gather_faces(self.solid.mesh_data, self.facets, self.solid, mises)
+
+    def draw(self, faces: tuple, path: str, title: str | None = None) -> None:
+        """The picture of ``faces`` (from ``faces``); nothing on the ranks that did not gather them."""
+        corners, regions, values = faces
         if corners is not None and len(corners):
             self.picture.draw(corners, regions, values, path, self.axes, title)

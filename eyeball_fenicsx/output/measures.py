@@ -327,13 +327,13 @@ class EyeMeasures(Observer):
         result["subretinal_volume_mm3"] = float(subretinal)
         return result
 
-    def retina_gap_map(self) -> tuple:
-        """Collective. On rank 0, (reference positions, gap) of the retina's nodes as last
+    def retina_gap_map(self, root: int = 0) -> tuple:
+        """Collective. On rank ``root``, (reference positions, gap) of the retina's nodes as last
         measured; (None, None) elsewhere or without a detachment."""
         if self.retina_gap is None:
             return None, None
-        gathered = self.solid.comm.gather((self.X[self.retina_nodes], self.retina_gap), root=0)
-        if self.solid.comm.rank != 0:
+        gathered = self.solid.comm.gather((self.X[self.retina_nodes], self.retina_gap), root=root)
+        if self.solid.comm.rank != root:
             return None, None
         return np.concatenate([g[0] for g in gathered]), np.concatenate([g[1] for g in gathered])
 
