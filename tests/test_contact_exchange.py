@@ -66,3 +66,28 @@ def test_the_exchange_gives_the_forces_of_the_whole_master_surface():
         assert again[key] == report[key]
     assert np.allclose(again["force"], report["force"], rtol=0.0, atol=1e-13 * np.linalg.norm(report["force"]))
     assert abs(again["max_penetration"] - report["max_penetration"]) < 1e-13  # mm, on blocks 1 mm high
+
+
+def test_the_matrix_pattern_outlives_the_search_it_was_made_from():
+    """A search that finds fewer candidates keeps the matrix (its pattern has room for them), but
+    its table may no longer hold the master nodes of the old pattern: the pattern's dofs must
+    still be those the matrix was made for, since another contact feature may ask for a new
+    matrix before this one does (in a whole eye, the retina's pair after the band's)."""
+    def axis(k, lo, hi):
+        return np.linspace(lo, hi, k + 1)
+
+    mesh = blocks_mesh(("lower", axis(6, 0, 2), axis(2, 0, 1), axis(1, 0, 0.5)),
+                       ("upper", axis(5, 0, 2), axis(3, 0, 1), axis(1, 0.5, 1.0)))
+    pair = ContactPair("touch", slave="upper_z0", master="lower_z1")
+    scene = ef.Scene("pattern", mesh, {"lower": ef.NeoHooke(0.5), "upper": ef.NeoHooke(0.5)},
+                     features=[ef.Dirichlet("lower_z0", {"x": 0.0, "y": 0.0, "z": 0.0}), pair])
+    scene.build()
+    comm = MPI.COMM_WORLD
+    w = pair.solid.w
+    for _ in range(10):  # the slave surface lifted off the master, 0.2 at a time
+        w.x.array[pair.facet_dofs[..., 2]] += 0.2
+        if pair.begin_increment():  # a new matrix, made for these candidates
+            made_for = [array.copy() for array in pair.coupling()]
+    assert comm.allreduce(len(made_for[0]), op=MPI.SUM) > 0
+    assert comm.allreduce(len(pair.table.segments), op=MPI.SUM) == 0  # 2 off: none left near
+    assert all(np.array_equal(a, b) for a, b in zip(made_for, pair.coupling()))

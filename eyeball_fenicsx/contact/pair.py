@@ -111,10 +111,11 @@ class ContactPair(ContactFeature):
         # the master segments near this rank's slave points, exchanged at every search (master.py)
         self.master = DistributedMaster(comm, tables, master, self.symmetry)
         self._unreserved, self._new_step, self._assembled = True, False, False
-        self.motion, self.pattern_keys = 0.0, None
+        self.motion = 0.0
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._search()
-        self.pattern_keys = self.candidate_keys = self._keys()
+        self.candidate_keys = self._keys()
+        self._set_pattern(self.candidate_keys)
 
     # -- positions -----------------------------------------------------------------------
     def master_positions(self) -> np.ndarray:
@@ -277,13 +278,21 @@ class ContactPair(ContactFeature):
         self._new_step = False
         if not anew and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
             return False
-        self.pattern_keys, self._assembled = keys, False
+        self._set_pattern(keys)
+        self._assembled = False
         return True
+
+    def _set_pattern(self, keys):
+        """The node pairs the matrix has room for, and their global (row, col) dofs, looked up
+        now: a later search's table may hold some of their master nodes no more, while the
+        matrix keeps them (another feature may ask for a new one first)."""
+        self.pattern_keys = keys
+        row, col = self._node_dofs(keys // 2**31), self._node_dofs(keys % 2**31)
+        self._pattern = np.repeat(row, 3, axis=1).ravel(), np.tile(col, (1, 3)).ravel()
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray]:
         """Global (row, col) dofs of every node pair the candidates may couple."""
-        row, col = self._node_dofs(self.pattern_keys // 2**31), self._node_dofs(self.pattern_keys % 2**31)
-        return np.repeat(row, 3, axis=1).ravel(), np.tile(col, (1, 3)).ravel()
+        return self._pattern
 
     def _node_dofs(self, nodes):
         """The global dofs (n, 3) of slave and master nodes this rank holds, by global node number."""
