@@ -302,27 +302,37 @@ def test_hertz_rigid_sphere_on_incompressible_half_space():
 
 
 # -- (e) sliding --------------------------------------------------------------------------------
-def test_sliding_block_crosses_many_master_elements_with_quadratic_newton():
-    """A block pressed onto a longer one and dragged 1.5 along it (4.5 master elements, 10
-    slave elements, 1/16 of a master element per increment): frictionless, so the contact
-    force stays normal and balances the base's reaction, and Newton converges quadratically
-    once the active set settles."""
+def slide(solver):
+    """A block pressed onto a longer one and dragged 1.5 along it (4.5 master elements, 10 slave
+    elements); returns the last step of the summary and every increment's residual history."""
 
     def n(k, lo=0.0, hi=1.0):
         return np.linspace(lo, hi, k + 1)
 
     mesh = blocks_mesh(("lower", n(9, 0, 3), n(3), n(2, 0, 0.5)), ("upper", n(4, 0, 0.6), n(4), n(2, 0.5, 1.0)))
-    pair = ContactPair("slide", slave="upper_z0", master="lower_z1")
     histories = []
     scene = ef.Scene("slide", mesh, {"lower": ef.NeoHooke(0.5), "upper": ef.NeoHooke(0.5)},
                      features=[ef.Dirichlet("lower_z0", {"x": 0.0, "y": 0.0, "z": 0.0}),
                                ef.Dirichlet("lower_y0", {"y": 0.0}), ef.Dirichlet("upper_y0", {"y": 0.0}),
-                               ef.Dirichlet("upper_z1", {"x": 1.5, "z": -0.05}), pair],
-                     probes={"corner": [0.6, 1.0, 1.0]},
-                     # a fresh tangent every Newton step: the convergence rate is the point here
-                     solver=ef.SolverSettings(increments=24, growth=1.0, reuse_contraction=0.0))
+                               ef.Dirichlet("upper_z1", {"x": 1.5, "z": -0.05}),
+                               ContactPair("slide", slave="upper_z0", master="lower_z1")],
+                     probes={"corner": [0.6, 1.0, 1.0]}, solver=solver)
     with increment_lines(lambda line: histories.append(list(scene.newton.residual_norms))):
         final = scene.run()["steps"][-1]
+    return final, histories
+
+
+@pytest.fixture(scope="module")
+def slid_in_small_increments():
+    """1/16 of a master element per increment, a fresh tangent every Newton step: the
+    convergence rate is the point here."""
+    return slide(ef.SolverSettings(increments=24, growth=1.0, reuse_contraction=0.0))
+
+
+def test_sliding_block_crosses_many_master_elements_with_quadratic_newton(slid_in_small_increments):
+    """Frictionless, so the contact force stays normal and balances the base's reaction, and
+    Newton converges quadratically once the active set settles."""
+    final, histories = slid_in_small_increments
     contact, reactions = final["contact"]["slide"], final["reactions"]
     assert final["probes"]["corner"][0] == pytest.approx(1.5)
     assert reactions["lower_z0"][2] == pytest.approx(-reactions["upper_z1"][2], rel=1e-7)
@@ -339,6 +349,18 @@ def test_sliding_block_crosses_many_master_elements_with_quadratic_newton():
         pairs = [(r[k], r[k + 1]) for k in range(len(r) - 1) if r[k + 1] > 1e-12]
         for before, after in pairs[1:]:
             assert after < 10 * before**2
+
+
+def test_block_dragged_past_its_search_in_one_increment_ends_where_small_increments_do(slid_in_small_increments):
+    """Dragged 1.5 in one increment, the points move nine times the search's reach (half a
+    master element, the motion unknown yet): the converged state's check searches again and
+    solves again. Without it every point would have lost its candidates and the block would
+    sink into the base with no contact force. An elastic, frictionless state does not depend on
+    the path: the forces are those of 24 increments, to the augmented Lagrangian's tolerance."""
+    final, _ = slide(ef.SolverSettings(increments=1))
+    small = slid_in_small_increments[0]
+    assert final["contact"]["slide"]["force"][2] == pytest.approx(small["contact"]["slide"]["force"][2], rel=1e-4)
+    assert final["contact"]["slide"]["active_points"] == small["contact"]["slide"]["active_points"]
 
 
 @pytest.mark.parametrize("penalty", [1e0, 1e1, 1e2, 1e3, 1e4, 1e5])

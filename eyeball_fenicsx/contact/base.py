@@ -200,6 +200,10 @@ class ContactFeature(Feature):
         if self._pending is not None:
             self.node_multiplier, self._pending, self._selection = self._pending, None, None
 
+    def search_covers(self) -> bool:
+        """True: no search to outgrow by default (a rigid body's points couple only their own node)."""
+        return True
+
     def abandon_augmentation(self) -> None:
         """The solve after the last augmentation failed: back to the multipliers and penalty the
         converged state had, and no more augmentations in this increment."""

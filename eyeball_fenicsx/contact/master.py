@@ -12,8 +12,8 @@ runs in the order the whole surface would give it.
 **Search (once per increment).** The ranks exchange the bounding boxes of their slave points
 (current positions: six numbers per rank). Each rank then sends to every other rank, in one
 ``Alltoallv`` (a neighbourhood exchange: a rank whose box meets none of another's segments
-sends it nothing), those of its segments whose box, widened by the search reach (a multiple
-of the segment's size plus twice the motion since the last search, ``pair.py``), meets that
+sends it nothing), those of its segments whose box, widened by the search's reach (a multiple
+of the largest segment's size plus twice the motion since the last search, ``pair.py``), meets that
 rank's box: exactly the segments the search could pair with one of its points. A segment
 travels with its patch: the global numbers, reference coordinates and dofs of the patch's
 nodes, the incidences, scales and mirrors of its corners' normals, and the thickness under it.
@@ -68,9 +68,8 @@ class MasterTable:
     patches (rows of ``node_*``; ``segments`` and ``patch.nodes`` index them).
 
     Attributes:
-        segments: (m, k) corner nodes; patch: their ``Patches``; thickness, size, centroid:
-            per segment the depth of the element under it, sqrt of its area (reference) and its
-            reference centroid (m, 3).
+        segments: (m, k) corner nodes; patch: their ``Patches``; thickness, centroid: per
+            segment the depth of the element under it and its reference centroid (m, 3).
         node_global: (n,) global node numbers (the x dof's); node_dofs: (n, 3) global dofs;
         node_X: (n, 3) reference coordinates.
     """
@@ -78,7 +77,6 @@ class MasterTable:
     segments: np.ndarray
     patch: Patches
     thickness: np.ndarray
-    size: np.ndarray
     centroid: np.ndarray
     node_global: np.ndarray
     node_dofs: np.ndarray
@@ -174,13 +172,13 @@ class DistributedMaster:
         """Current corners (m, k, 3) of this rank's own segments, from a ghosted dof array."""
         return self.corner_X + values[self.corner_dofs]
 
-    def exchange(self, points: np.ndarray, corners: np.ndarray, reach: np.ndarray) -> MasterTable:
-        """Receive the segments whose box, widened by ``reach`` (per own segment), may hold one of
+    def exchange(self, points: np.ndarray, corners: np.ndarray, reach: float) -> MasterTable:
+        """Receive the segments whose box, widened by ``reach``, may hold one of
         this rank's ``points`` (n, 3); build the scatter of their nodes (collective)."""
         lo = points.min(axis=0) if len(points) else np.full(3, np.inf)
         hi = points.max(axis=0) if len(points) else np.full(3, -np.inf)
         boxes = np.array(self.comm.allgather(np.concatenate([lo, hi])))  # (ranks, 6)
-        seg_lo, seg_hi = corners.min(axis=1) - reach[:, None], corners.max(axis=1) + reach[:, None]
+        seg_lo, seg_hi = corners.min(axis=1) - reach, corners.max(axis=1) + reach
         meets = np.all(seg_lo[:, None, :] <= boxes[None, :, 3:], axis=2) & \
             np.all(seg_hi[:, None, :] >= boxes[None, :, :3], axis=2)  # (m, ranks)
         segment, rank = np.nonzero(meets)
@@ -202,8 +200,7 @@ class DistributedMaster:
         patch = Patches(nodes, nxt, prv, mask.astype(bool), scale, mirror)
         node_X = X.reshape(-1, 3)[first]
         x = node_X[nodes[:, :k]]
-        size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))
-        return MasterTable(nodes[:, :k], patch, floats[:, at + 10 * k], size, x.mean(axis=1), node_global,
+        return MasterTable(nodes[:, :k], patch, floats[:, at + 10 * k], x.mean(axis=1), node_global,
                            dofs.reshape(-1, 3)[first].astype(PETSc.IntType), node_X)
 
     def _build_scatter(self):

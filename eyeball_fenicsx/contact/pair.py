@@ -5,8 +5,13 @@ quadrilateral, 3 on a triangle; weights in the reference configuration), as FEBi
 sliding-elastic interface does, so a slave node sitting over a fold of the master is no
 longer one point that must choose a side. Each point is projected along the master's
 continuous normal field (``geometry.py``) on the candidate segments found at the start of
-the increment (``search.py``: within SEARCH_FACTOR segment sizes plus twice the last
-increment's motion), and takes the segment whose foot lies on it and is nearest; two
+the increment (``search.py``: within SEARCH_FACTOR times the master's largest segment plus
+twice the last increment's motion, coordinate-wise), and takes the segment whose foot lies
+on it and is nearest. The candidates hold every segment a point may press on as long as the
+points and the master's corners have moved, since the search, by less than that reach less
+the range of gaps that carry a pressure (``search_covers``, at every converged state); where
+they moved farther, the solver searches again at that state and solves again
+(system/stepping.py), so that how far an increment slides changes its cost only. Two
 segments at an edge give the same foot there, and exact ties go to the segment with the
 smallest reference centroid (lexicographic), a rule that does not depend on the partition.
 A point farther inside than the element under the segment is on its far side, not in
@@ -110,6 +115,7 @@ class ContactPair(ContactFeature):
 
         # the master segments near this rank's slave points, exchanged at every search (master.py)
         self.master = DistributedMaster(comm, tables, master, self.symmetry)
+        self.largest_segment = comm.allreduce(float(self.master.size.max(initial=0.0)), op=MPI.MAX)
         self._unreserved, self._new_step, self._assembled = True, False, False
         self.motion = 0.0
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
@@ -163,11 +169,11 @@ class ContactPair(ContactFeature):
         self.motion = self.solid.comm.allreduce(moved, op=MPI.MAX) or self.motion
         self._last, self._searched = (xs, corners), values.copy()
         exchange = time.perf_counter()
-        table = self.table = self.master.exchange(xs, corners, SEARCH_FACTOR * self.master.size + 2.0 * self.motion)
+        reach = self._reach()
+        table = self.table = self.master.exchange(xs, corners, reach)
         self._selection = None  # its segments were the last table's
         self.timing["exchange"] += time.perf_counter() - exchange
         x = self.master_positions()[table.segments]
-        reach = (SEARCH_FACTOR * table.size + 2.0 * self.motion)[:, None]
         point, seg = candidate_pairs(xs, x.min(axis=1) - reach, x.max(axis=1) + reach)
         # a segment made of the point's own facet's nodes is that facet (surfaces that overlap);
         # segments that only share nodes with it stay: a detached retina meets the choroid facets
@@ -178,6 +184,30 @@ class ContactPair(ContactFeature):
         self.cand_point, self.cand_seg = point[~own], seg[~own]
         self._feet_guess = None  # the centres
         self.timing["search"] += time.perf_counter() - start
+
+    def search_covers(self) -> bool:
+        """True if every segment a point may press on now was its candidate at the last search
+        (collective; module docstring): the points and the master's corners moved since then,
+        coordinate-wise, by less than the search's reach less the range of gaps at which
+        a point carries a pressure (the law's reach and the multipliers' shift on the open side,
+        the deepest penetration on the other)."""
+        if not self.active:
+            return True
+        sel, on, _, _ = self._pressures()
+        xs, corners = self._slave_points(), self.master.corners(self.solid.w.x.array)
+        local = np.array([np.abs(xs - self._last[0]).max(initial=0.0), np.abs(corners - self._last[1]).max(initial=0.0),
+                          self.reach + np.max(self._point_multipliers() / self.alpha, initial=0.0),
+                          np.max(-sel.g[on], initial=0.0)])
+        largest = np.empty(4)
+        self.solid.comm.Allreduce(local, largest, op=MPI.MAX)
+        slave, master, open_side, penetration = largest
+        return slave + master + max(open_side, penetration) <= self._reach()
+
+    def _reach(self):
+        """How far from a segment's box the search takes a point as its candidate: SEARCH_FACTOR
+        times the master's largest segment, the same for all (so ``search_covers`` holds for
+        every segment), plus twice the motion the last search saw."""
+        return SEARCH_FACTOR * self.largest_segment + 2.0 * self.motion
 
     def _select(self, positions):
         xs, xm = positions

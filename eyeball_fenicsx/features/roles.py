@@ -103,6 +103,10 @@ class ActiveSet(Protocol):
     def set_increment(self, final: bool) -> None:
         """Before each load increment: ``final`` if it ends the step."""
 
+    def search_covers(self) -> bool:
+        """Collective: the last search (``begin_increment``) still holds everything the converged
+        state may touch; False if it must search again, and Newton solve again."""
+
     def augment(self) -> bool:
         """Collective: after Newton converged an increment, update what the converged state
         decides; False if Newton must solve again."""

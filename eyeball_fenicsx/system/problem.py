@@ -261,6 +261,10 @@ class Problem:
         """After Newton converged: True if no active set needs another solve (collective)."""
         return all([f.augment() for f in self.active_sets])
 
+    def search_covers(self) -> bool:
+        """After Newton converged: True if no active set must search again (collective)."""
+        return all([f.search_covers() for f in self.active_sets])
+
     def abandon_augmentation(self) -> None:
         """The solve after the last augmentation failed: the active sets take it back (collective)."""
         for f in self.active_sets:

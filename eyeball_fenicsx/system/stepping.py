@@ -3,6 +3,9 @@
 * A feature ramps in its step (``ramp``) and is held after it.
 * Predictor: the last increment's change, extrapolated, starts Newton; shortened where it would
   close a contact gap too far or invert an element, dropped where it still would.
+* After Newton converges, an active set whose last search no longer covers the state (a
+  contact point moved past the reach of its candidates: ``Problem.search_covers``) searches
+  again at that state, and Newton solves again from it.
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
   augmented Lagrangian of contact, which solves again in a step's last increment only). Those
   solves, and the first one of a step's last increment when the scene has active sets, are
@@ -159,8 +162,9 @@ def _predict(problem: Problem, newton: NewtonSolver, x: PETSc.Vec, x_old: PETSc.
 
 def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
                      load_factor: float) -> tuple[bool, Increment, str]:
-    """Newton on the increment ending at ``load_factor``, then again while a feature augments
-    (the augmented Lagrangian of contact), from the last factorization. Returns (converged,
+    """Newton on the increment ending at ``load_factor``, then again after a new search where the
+    last one no longer covers the state, and while a feature augments (the augmented Lagrangian
+    of contact), from the last factorization. Returns (converged,
     the increment's ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
@@ -170,6 +174,11 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     converged, its, norm, reason = newton.solve(x, loose=loose)
     settled = x.duplicate()
     while converged:
+        if not problem.search_covers():  # a point moved past its search's reach: search at this state, solve again
+            newton.update_pattern()
+            converged, more, norm, reason = newton.solve(x, loose=loose)
+            its += more
+            continue
         done = problem.augment()
         if done and not loose:
             break
