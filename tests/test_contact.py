@@ -352,13 +352,14 @@ def test_sliding_block_crosses_many_master_elements_with_quadratic_newton(slid_i
 
 
 def test_block_dragged_past_its_search_in_one_increment_ends_where_small_increments_do(slid_in_small_increments):
-    """Dragged 1.5 in one increment, the points move nine times the search's reach (half a
-    master element, the motion unknown yet): the converged state's check searches again and
-    solves again. Without it every point would have lost its candidates and the block would
+    """Dragged 1.5 in one increment, the points move six times the search's reach (0.7 of a
+    master element's edge, the motion unknown yet): the converged state's check searches again
+    and solves again. Without it every point would have lost its candidates and the block would
     sink into the base with no contact force. An elastic, frictionless state does not depend on
     the path: the forces are those of 24 increments, to the augmented Lagrangian's tolerance."""
     final, _ = slide(ef.SolverSettings(increments=1))
     small = slid_in_small_increments[0]
+    assert len(final["increments"]) == 1  # converged without a cut-back
     assert final["contact"]["slide"]["force"][2] == pytest.approx(small["contact"]["slide"]["force"][2], rel=1e-4)
     assert final["contact"]["slide"]["active_points"] == small["contact"]["slide"]["active_points"]
 

@@ -83,10 +83,10 @@ def test_the_matrix_pattern_outlives_the_search_it_was_made_from():
                      features=[ef.Dirichlet("lower_z0", {"x": 0.0, "y": 0.0, "z": 0.0}), pair])
     scene.build()
     comm = MPI.COMM_WORLD
-    w = pair.solid.w
+    w, made_for = pair.solid.w, [array.copy() for array in pair.coupling()]
     for _ in range(10):  # the slave surface lifted off the master, 0.2 at a time
         w.x.array[pair.facet_dofs[..., 2]] += 0.2
-        if pair.begin_increment():  # a new matrix, made for these candidates
+        if comm.allreduce(pair.begin_increment(), op=MPI.LOR):  # a new matrix, made for these candidates
             made_for = [array.copy() for array in pair.coupling()]
     assert comm.allreduce(len(made_for[0]), op=MPI.SUM) > 0
     assert comm.allreduce(len(pair.table.segments), op=MPI.SUM) == 0  # 2 off: none left near

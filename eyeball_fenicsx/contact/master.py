@@ -97,7 +97,8 @@ class DistributedMaster:
         self.comm, self.kind = comm, master.kind
         self.corner_dofs = tables.dofs[master.facets]  # (m, k, 3) local, for the owned segments' boxes
         self.corner_X = x = tables.X[master.facets]
-        self.size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))  # sqrt(area)
+        # a segment's size: sqrt(|d1 x d2|) of its diagonals (a square's: 1.41 edges)
+        self.size = np.sqrt(np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, -1] - x[:, 1]), axis=1))
         k = self.kind.corners
         self.count = comm.allreduce(len(master.facets), op=MPI.SUM)  # segments over all ranks
         offset = comm.exscan(len(master.facets), op=MPI.SUM) or 0

@@ -5,13 +5,14 @@ quadrilateral, 3 on a triangle; weights in the reference configuration), as FEBi
 sliding-elastic interface does, so a slave node sitting over a fold of the master is no
 longer one point that must choose a side. Each point is projected along the master's
 continuous normal field (``geometry.py``) on the candidate segments found at the start of
-the increment (``search.py``: within SEARCH_FACTOR times the master's largest segment plus
-twice the last increment's motion, coordinate-wise), and takes the segment whose foot lies
-on it and is nearest. The candidates hold every segment a point may press on as long as the
-points and the master's corners have moved, since the search, by less than that reach less
-the range of gaps that carry a pressure (``search_covers``, at every converged state); where
-they moved farther, the solver searches again at that state and solves again
-(system/stepping.py), so that how far an increment slides changes its cost only. Two
+the increment (``search.py``: within SEARCH_FACTOR times the master's largest segment size,
+plus twice the last increment's motion and the gaps that carry a pressure, coordinate-wise),
+and takes the segment whose foot lies on it and is nearest. The candidates hold every segment
+a point may press on as long as the points and the master's corners have moved, since the
+search, by less than that reach less the range of gaps that carry a pressure
+(``search_covers``, at every converged state); where they moved farther, the solver searches
+again at that state and solves again (system/stepping.py), so that how far an increment
+slides changes its cost only. Two
 segments at an edge give the same foot there, and exact ties go to the segment with the
 smallest reference centroid (lexicographic), a rule that does not depend on the partition.
 A point farther inside than the element under the segment is on its far side, not in
@@ -164,12 +165,13 @@ class ContactPair(ContactFeature):
         segments near this rank's points are exchanged first, master.py)."""
         start = time.perf_counter()
         values = self.solid.w.x.array
-        xs, corners = self._slave_points(), self.master.corners(values)
-        moved = max(np.abs(xs - self._last[0]).max(initial=0.0), np.abs(corners - self._last[1]).max(initial=0.0))
-        self.motion = self.solid.comm.allreduce(moved, op=MPI.MAX) or self.motion
+        xs, corners, moved = self._moved()
+        self.motion = max(moved[:2]) or self.motion
         self._last, self._searched = (xs, corners), values.copy()
         exchange = time.perf_counter()
-        reach = self._reach()
+        # SEARCH_FACTOR times the largest segment, the same for all (so that ``search_covers`` holds
+        # for every segment), twice the last motion, and the gaps at which a point carries a pressure
+        reach = self.search_reach = SEARCH_FACTOR * self.largest_segment + 2.0 * self.motion + moved[2]
         table = self.table = self.master.exchange(xs, corners, reach)
         self._selection = None  # its segments were the last table's
         self.timing["exchange"] += time.perf_counter() - exchange
@@ -188,26 +190,28 @@ class ContactPair(ContactFeature):
     def search_covers(self) -> bool:
         """True if every segment a point may press on now was its candidate at the last search
         (collective; module docstring): the points and the master's corners moved since then,
-        coordinate-wise, by less than the search's reach less the range of gaps at which
-        a point carries a pressure (the law's reach and the multipliers' shift on the open side,
-        the deepest penetration on the other)."""
+        coordinate-wise, by less than the search's reach less the range of gaps at which a
+        point carries a pressure (the law's reach and the multipliers' shift on the open side,
+        the deepest penetration on the other). A point that was deeper than the reach under a
+        segment at the search is assumed not to be there (it would have been in contact
+        unseen before)."""
         if not self.active:
             return True
         sel, on, _, _ = self._pressures()
+        penetration = self.solid.comm.allreduce(np.max(-sel.g[on], initial=0.0), op=MPI.MAX)
+        slave, master, open_side = self._moved()[2]
+        return slave + master + max(open_side, penetration) <= self.search_reach
+
+    def _moved(self):
+        """The points' and the master's own corners' positions now, and (over all ranks) how far
+        each moved since the last search, coordinate-wise, and the largest gap at which a point
+        carries a pressure (collective)."""
         xs, corners = self._slave_points(), self.master.corners(self.solid.w.x.array)
         local = np.array([np.abs(xs - self._last[0]).max(initial=0.0), np.abs(corners - self._last[1]).max(initial=0.0),
-                          self.reach + np.max(self._point_multipliers() / self.alpha, initial=0.0),
-                          np.max(-sel.g[on], initial=0.0)])
-        largest = np.empty(4)
+                          self.reach + np.max(self._point_multipliers() / self.alpha, initial=0.0)])
+        largest = np.empty(3)
         self.solid.comm.Allreduce(local, largest, op=MPI.MAX)
-        slave, master, open_side, penetration = largest
-        return slave + master + max(open_side, penetration) <= self._reach()
-
-    def _reach(self):
-        """How far from a segment's box the search takes a point as its candidate: SEARCH_FACTOR
-        times the master's largest segment, the same for all (so ``search_covers`` holds for
-        every segment), plus twice the motion the last search saw."""
-        return SEARCH_FACTOR * self.largest_segment + 2.0 * self.motion
+        return xs, corners, largest
 
     def _select(self, positions):
         xs, xm = positions

@@ -9,7 +9,7 @@ loads). The factor is the one of 1, 3, 10 and 30 with which the encircling opera
 the fewest Newton iterations (the study is in the git log and benchmarks/README.md).
 """
 PENALTY_FACTOR = 3.0
-SEARCH_FACTOR = 0.5  # candidates: within this many of the master's largest segments (plus the last motion; checked)
+SEARCH_FACTOR = 0.5  # candidates: within this many of the master's largest segment size (pair.py; checked)
 ACTIVE_RANGE = 20.0  # a smoothed law acts up to gaps of this many smoothing lengths (force e^-20)
 OPEN_RANGE = 3.0  # ... and its stiffness is below 5 % of the penalty beyond this many: "open"
 ONSET_DEPTH = 0.05  # a point closing in one Newton step may go this deep (fraction of its element's thickness)

@@ -3,9 +3,10 @@
 * A feature ramps in its step (``ramp``) and is held after it.
 * Predictor: the last increment's change, extrapolated, starts Newton; shortened where it would
   close a contact gap too far or invert an element, dropped where it still would.
-* After Newton converges, an active set whose last search no longer covers the state (a
-  contact point moved past the reach of its candidates: ``Problem.search_covers``) searches
-  again at that state, and Newton solves again from it.
+* After Newton converges, if an active set's last search no longer covers the state (a
+  contact point moved past the reach of its candidates: ``Problem.search_covers``), the
+  active sets search again at that state and Newton solves again from it, at most
+  ``MAX_SEARCHES`` times in an increment (then it is cut back).
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
   augmented Lagrangian of contact, which solves again in a step's last increment only). Those
   solves, and the first one of a step's last increment when the scene has active sets, are
@@ -52,6 +53,7 @@ from .settings import SolverSettings
 
 log = logging.getLogger(__name__)
 STRETCH = 1.5  # an increment that would leave less than half its size to the step's end takes that too
+MAX_SEARCHES = 3  # searches again in one increment, after converged states its search did not cover
 
 
 def ramp(feature_step: int, step_index: int, t: float) -> float:
@@ -172,12 +174,15 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     problem.set_increment(final)
     loose = final and bool(problem.active_sets)  # x will converge at the loose tolerances only
     converged, its, norm, reason = newton.solve(x, loose=loose)
-    settled = x.duplicate()
+    settled, searches = x.duplicate(), 0
     while converged:
         if not problem.search_covers():  # a point moved past its search's reach: search at this state, solve again
+            if searches == MAX_SEARCHES:
+                converged, reason = False, f"contact points still outrun their search after {searches} more"
+                break
             newton.update_pattern()
             converged, more, norm, reason = newton.solve(x, loose=loose)
-            its += more
+            its, searches = its + more, searches + 1
             continue
         done = problem.augment()
         if done and not loose:
