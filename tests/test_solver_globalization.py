@@ -132,6 +132,25 @@ def test_inverting_step_is_shortened_not_cut_back(block_mesh, line_search):
     assert scene.problem.guard.check()[0] > 0
 
 
+def test_an_element_inverted_at_a_quadrature_point_only_is_seen(block_mesh):
+    """The corner (2, 1, 1) of the block [0, 2] x [0, 1] x [0, 1] (two hexahedra) moved by
+    -s (1, 1, 1): u = -s xi_1 xi_2 xi_3 (1, 1, 1) in the second element's reference coordinates
+    xi, so F = I - s (1, 1, 1) (xi_2 xi_3, xi_1 xi_3, xi_1 xi_2)^T and det F = 1 - s (xi_2 xi_3 +
+    xi_1 xi_3 + xi_1 xi_2), least at the 2 x 2 x 2 Gauss point nearest the corner, xi = (a, a, a),
+    a = (3 + sqrt 3) / 6: 1 - 3 s a^2 = -0.49 for s = 0.8, where the laws are not a number
+    (J^(-2/3)); the midpoint keeps 1 - 3 s / 4 = 0.4. The guard must see the Gauss point."""
+    scene = ef.Scene("corner", block_mesh((2, 1, 1), lengths=(2.0, 1.0, 1.0)), {"solid": ef.NeoHooke(0.5)},
+                     features=ROLLERS)
+    scene.build()
+    s, a = 0.8, (3 + np.sqrt(3)) / 6
+    u = scene.problem.solid.w.sub(0)
+    u.interpolate(lambda x: -s * np.maximum(x[0] - 1.0, 0.0) * x[1] * x[2] * np.ones((3, 1)))
+    scene.problem.solid.w.x.scatter_forward()
+    det_min, where = scene.problem.guard.check()
+    assert det_min == pytest.approx(1 - 3 * s * a**2, rel=1e-10)
+    assert where == pytest.approx([1.5, 0.5, 0.5])
+
+
 # ---------------------------------------------------------------------------------------------
 # 4. Increments: the target rule
 
@@ -139,8 +158,8 @@ def test_inverting_step_is_shortened_not_cut_back(block_mesh, line_search):
 def corner_force(block_mesh, growth):
     """A point force of 2 mu (1, 1, 1) pressing on a corner of the unit cube, in 4 increments
     to start with, the rule aimed at 5 tangents an increment. No secant predictor:
-    extrapolated, this state inverts an element at a Gauss point (the inversion guard watches
-    midpoints), and a cut-back would break the rule's chain."""
+    extrapolated, this state inverts an element at a Gauss point, and a cut-back would break
+    the rule's chain."""
     scene = ef.Scene("corner", block_mesh((2, 2, 2)), {"solid": ef.NeoHooke(0.5)},
                      features=ROLLERS + [ef.NodalForce([-2.0, -2.0, -2.0], point=[1.0, 1.0, 1.0])],
                      probes={"corner": [1.0, 1.0, 1.0]},

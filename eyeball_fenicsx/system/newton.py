@@ -46,8 +46,8 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   residual has met PETSc's default test (its 2-norm at most ``snes_rtol`` times its first, or
   ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
   below when its terms are far larger than its imbalance, and the solve has converged;
-* a Newton step that would invert an element (det F <= 0 at an element's midpoint, as
-  ``mechanics.solid.JacobianGuard`` watches) is halved before the line search, up to
+* a Newton step that would invert an element (det F <= 0 at a quadrature point or the
+  midpoint of an element, as ``mechanics.solid.JacobianGuard`` watches) is halved before the line search, up to
   ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
   ``ActiveSet.step_fraction``); one that still inverts ends the solve ("inverting step") with
   the element's location. A secant predictor that would invert an element is halved alike,
@@ -185,10 +185,11 @@ class NewtonSolver:
         return fraction < 1.0 or halvings != 0
 
     def shorten_while_inverting(self, x: PETSc.Vec, y: PETSc.Vec) -> int | None:
-        """Halve the step x -> x - y while it would invert an element (det F <= 0 at an element's
-        midpoint, ``mechanics.solid.JacobianGuard``), at most MAX_STEP_HALVINGS times; returns the
-        number of halvings, or None if x - y still inverts (then ``Problem.inverted`` tells where
-        the full step did). Leaves the solid at x (collective)."""
+        """Halve the step x -> x - y while it would invert an element (det F <= 0 at one of its
+        quadrature points or its midpoint, ``mechanics.solid.JacobianGuard``), at most
+        MAX_STEP_HALVINGS times; returns the number of halvings, or None if x - y still inverts
+        (then ``Problem.inverted`` tells where the full step did). Leaves the solid at x
+        (collective)."""
         full_step = self._inversion_at(x, y)
         det_min, halvings = full_step[0], 0
         while not det_min > 0 and halvings < MAX_STEP_HALVINGS:
