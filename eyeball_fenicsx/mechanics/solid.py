@@ -240,6 +240,7 @@ class JacobianGuard:
         local = (np.inf, np.zeros(3))
         if len(self._cells):
             values = self._expr.eval(self._cells).reshape(len(self._cells), -1)
-            values = np.where(np.isnan(values), -np.inf, values).min(axis=1)  # a NaN state is as bad as an inversion
-            local = (float(values.min()), self._midpoints[values.argmin()])
+            worst = values.min(axis=1)  # per element (NaN where any point is NaN)
+            worst[np.isnan(worst)] = -np.inf  # a NaN state is as bad as an inversion
+            local = (float(worst.min()), self._midpoints[worst.argmin()])
         return min(self.solid.comm.allgather(local), key=lambda item: item[0])

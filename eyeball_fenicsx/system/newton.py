@@ -47,11 +47,11 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   ``snes_atol``): then a block has stalled at its round-off, which its own tolerance can lie
   below when its terms are far larger than its imbalance, and the solve has converged;
 * a Newton step that would invert an element (det F <= 0 at a quadrature point or the
-  midpoint of an element, as ``mechanics.solid.JacobianGuard`` watches) is halved before the line search, up to
-  ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact onset limit,
-  ``ActiveSet.step_fraction``); one that still inverts ends the solve ("inverting step") with
-  the element's location. A secant predictor that would invert an element is halved alike,
-  or dropped.
+  midpoint of an element, as ``mechanics.solid.JacobianGuard`` watches) is halved before the
+  line search, up to ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact
+  onset limit, ``ActiveSet.step_fraction``); one that still inverts ends the solve ("inverting
+  step") with the element's location. A secant predictor that would invert an element is
+  halved alike, or dropped.
 """
 from __future__ import annotations
 
