@@ -14,7 +14,9 @@ afterwards), the second is the one reported, with its time split into
 * inside the Newton iterations (PETSc events and the contact features' own timers): MUMPS
   numeric factorization, Jacobian and residual evaluation, contact search and assembly;
 * every Newton solve's residual norms (``newton_solves``, failed attempts and the augmented
-  Lagrangian's re-solves included) and, per solve, the order of convergence of its last two
+  Lagrangian's re-solves included), what each was for, summed by kind (``solves_by_kind``:
+  increments' first solves, solves after a new search, augmentations, the solves that end them,
+  failed increments) and, per solve, the order of convergence of its last two
   steps with new tangents (``convergence_orders``; the chord steps that reuse a factorization
   converge linearly by design, solver.py).
 
@@ -53,18 +55,48 @@ def event_seconds():
 
 
 class Residuals:
-    """Every Newton solve's residual norms, and whether each step before them factorized a new
-    tangent (the others reuse one: chord steps, which converge linearly by design)."""
+    """Every Newton solve's residual norms, whether each step before them factorized a new
+    tangent (the others reuse one: chord steps, which converge linearly by design), and what the
+    solve was for (``kind``): an increment's first solve, a solve after a new contact search, an
+    augmentation's (from the last factorization), the one at the usual tolerances that ends the
+    augmentations, or any solve of an increment that failed (system/stepping.py)."""
+
+    KINDS = ("increment", "search again", "augmentation", "after the augmentations", "failed increment")
 
     def __init__(self, newton):
-        self.newton, self.solves = newton, []
+        self.newton, self.solves, self.attempt_start = newton, [], 0
+        solve = newton.solve
+
+        def labelled(x, chord_start=False, loose=False):
+            first = len(self.solves) == self.attempt_start
+            augmented = any(s["kind"] == "augmentation" for s in self.solves[self.attempt_start:])
+            self.kind = "increment" if first else "augmentation" if chord_start else \
+                "after the augmentations" if augmented and not loose else "search again"
+            return solve(x, chord_start=chord_start, loose=loose)
+        newton.solve = labelled
+
+    def begin_attempt(self):
+        self.attempt_start = len(self.solves)
+
+    def attempt_failed(self):
+        for s in self.solves[self.attempt_start:]:
+            s["kind"] = "failed increment"
 
     def __call__(self, snes, its, norm):
         if its == 0:
-            self.solves.append({"norms": [], "new_tangent": []})
+            self.solves.append({"kind": self.kind, "norms": [], "new_tangent": []})
         else:
             self.solves[-1]["new_tangent"].append(not self.newton.reused)
         self.solves[-1]["norms"].append(norm)
+
+    def by_kind(self):
+        """Per kind of solve: solves, Newton iterations, new tangents among them."""
+        table = {}
+        for kind in self.KINDS:
+            solves = [s for s in self.solves if s["kind"] == kind]
+            table[kind] = {"solves": len(solves), "newton_iterations": sum(len(s["new_tangent"]) for s in solves),
+                           "new_tangents": sum(sum(s["new_tangent"]) for s in solves)}
+        return table
 
     def orders(self):
         """Per solve, the order of convergence of its last two consecutive steps with new
@@ -84,8 +116,8 @@ class Residuals:
 class Attempts:
     """Every increment's Newton attempt (``stepping._solve_increment``), timed: converged or not."""
 
-    def __init__(self):
-        self.wall, self.failed = [], []
+    def __init__(self, residuals):
+        self.wall, self.failed, self.residuals = [], [], residuals
 
     @contextlib.contextmanager
     def watching(self):
@@ -93,9 +125,11 @@ class Attempts:
 
         def timed(*args):
             start = time.perf_counter()
+            self.residuals.begin_attempt()
             result = original(*args)
             self.wall.append(time.perf_counter() - start)
             if not result[0]:
+                self.residuals.attempt_failed()
                 self.failed.append({"wall_s": self.wall[-1], "newton_iterations": result[1].newton_iterations,
                                     "factorizations": result[1].factorizations, "reason": result[2]})
             return result
@@ -116,7 +150,7 @@ def run_once(n_circ, out):
     build_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     residuals = Residuals(scene.newton)
     scene.newton.snes.setMonitor(residuals)
-    with Attempts().watching() as attempts:
+    with Attempts(residuals).watching() as attempts:
         summary = scene.run(out)
     run_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     failed_s = comm.allreduce(sum(f["wall_s"] for f in attempts.failed), op=MPI.MAX)
@@ -139,7 +173,8 @@ def run_once(n_circ, out):
             "setup_s": build_s, "failed_increments_s": failed_s, "output_s": setup_s - build_s - failed_s,
             "failed_increments": attempts.failed, "steps": steps,
             "inside_newton_s": {**events, **contact},
-            "newton_solves": residuals.solves, "convergence_orders": residuals.orders(),
+            "newton_solves": residuals.solves, "solves_by_kind": residuals.by_kind(),
+            "convergence_orders": residuals.orders(),
             "buckle": {"axial_length_change_mm": final["axial_length_mm"] - first["axial_length_mm"],
                        "iop_mmHg": [s["eye"]["iop_mmHg"] for s in summary["steps"]],
                        "buckle_height_mm": final.get("buckle_height_mm"),
@@ -172,6 +207,10 @@ def main():
         for s in result["steps"]:
             print(f"  step {s['name']:<23}{s['wall_s']:8.1f} s  {s['increments']} increments, "
                   f"{s['newton_iterations']} Newton iterations, {s['factorizations']} factorizations")
+        print("  the Newton solves, by what they were for:")
+        for kind, row in result["solves_by_kind"].items():
+            print(f"    {kind:<26}{row['solves']:4d} solves, {row['newton_iterations']:3d} Newton iterations, "
+                  f"{row['new_tangents']:3d} new tangents")
         print("  inside the Newton iterations:")
         for key, seconds in result["inside_newton_s"].items():
             print(f"    {key:<26}{seconds:8.1f} s")
