@@ -16,8 +16,8 @@ afterwards), the second is the one reported, with its time split into
 * every Newton solve's residual norms (``newton_solves``, failed attempts and the augmented
   Lagrangian's re-solves included), what each was for, summed by kind (``solves_by_kind``:
   increments' first solves, solves after a new search, augmentations, the solves that end them,
-  failed increments) and, per solve, the order of convergence of its last two
-  steps with new tangents (``convergence_orders``; the chord steps that reuse a factorization
+  failed increments) and, per converged solve, the order of convergence of its last step with a
+  new tangent in the convergent regime (``convergence_orders``; the chord steps that reuse a factorization
   converge linearly by design, solver.py).
 
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 benchmarks/encircling_operation.py [--n-circ 40]
@@ -99,17 +99,19 @@ class Residuals:
         return table
 
     def orders(self):
-        """Per solve, the order of convergence of its last two consecutive steps with new
-        tangents, log(r_k / r_k-1) / log(r_k-1 / r_k-2): about 2 for Newton's quadratic
-        convergence. Steps that end below ROUND_OFF are left out (no longer the rate)."""
+        """Per converged solve, the order of its last step with a new tangent that starts in the
+        convergent regime (its residual at most a tenth of the largest in the solve, s) and ends
+        above round-off: log(r_k / s) / log(r_k-1 / s), about 2 for Newton's quadratic
+        convergence (r_k = s (r_k-1 / s)^2), 1 for a step that contracts no faster than the
+        residual's scale. Solves that end before such a step (loose ones, one-step ones) give none."""
         orders = []
         for solve in self.solves:
             r, new = solve["norms"], solve["new_tangent"]  # step k (1, 2, ...) takes r[k-1] to r[k]
-            pairs = [k for k in range(2, len(r)) if new[k - 2] and new[k - 1] and r[k] > ROUND_OFF
-                     and r[k] < r[k - 1] < r[k - 2]]
-            if pairs:
-                k = pairs[-1]
-                orders.append(math.log(r[k] / r[k - 1]) / math.log(r[k - 1] / r[k - 2]))
+            scale = max(r)
+            steps = [k for k in range(1, len(r)) if new[k - 1] and r[k] > ROUND_OFF and r[k - 1] <= 0.1 * scale]
+            if steps and solve["kind"] != "failed increment":
+                k = steps[-1]
+                orders.append(math.log(r[k] / scale) / math.log(r[k - 1] / scale))
         return orders
 
 
@@ -216,7 +218,7 @@ def main():
             print(f"    {key:<26}{seconds:8.1f} s")
         orders = sorted(result["convergence_orders"])
         if orders:
-            print(f"  order of convergence of the last two Newton steps with new tangents, in {len(orders)} of "
+            print(f"  order of convergence of the last Newton step with a new tangent, in {len(orders)} of "
                   f"{len(result['newton_solves'])} solves: median {orders[len(orders) // 2]:.2f}, "
                   f"range {orders[0]:.2f} to {orders[-1]:.2f}")
         b = result["buckle"]
