@@ -16,9 +16,9 @@ afterwards), the second is the one reported, with its time split into
 * every Newton solve's residual norms (``newton_solves``, failed attempts and the augmented
   Lagrangian's re-solves included), what each was for, summed by kind (``solves_by_kind``:
   increments' first solves, solves after a new search, augmentations, the solves that end them,
-  failed increments) and, per converged solve, the order of convergence of its last step with a
-  new tangent in the convergent regime (``convergence_orders``; the chord steps that reuse a factorization
-  converge linearly by design, solver.py).
+  failed increments) and, per solve outside those, the order of convergence of its last step
+  with a new tangent in the convergent regime (``convergence_orders``; the chord steps that reuse
+  a factorization converge linearly by design, system/newton.py).
 
     mpirun --allow-run-as-root -n 2 .venv/bin/python3 benchmarks/encircling_operation.py [--n-circ 40]
 
@@ -57,23 +57,27 @@ def event_seconds():
 class Residuals:
     """Every Newton solve's residual norms, whether each step before them factorized a new
     tangent (the others reuse one: chord steps, which converge linearly by design), and what the
-    solve was for (``kind``): an increment's first solve, a solve after a new contact search, an
-    augmentation's (from the last factorization), the one at the usual tolerances that ends the
-    augmentations, or any solve of an increment that failed (system/stepping.py)."""
+    solve was for (``kind``, system/stepping.py): an increment's first solve, a solve after a new
+    contact search, an augmentation's (from the last factorization), the solve at the usual
+    tolerances that ends a step's loose ones, or any solve of an increment that failed."""
 
-    KINDS = ("increment", "search again", "augmentation", "after the augmentations", "failed increment")
+    KINDS = ("increment", "search again", "augmentation", "at the usual tolerances", "failed increment")
 
     def __init__(self, newton):
-        self.newton, self.solves, self.attempt_start = newton, [], 0
-        solve = newton.solve
+        self.newton, self.solves, self.attempt_start, self.searched = newton, [], 0, False
+        solve, update_pattern = newton.solve, newton.update_pattern
+
+        def searching():
+            self.searched = True
+            update_pattern()
 
         def labelled(x, chord_start=False, loose=False):
             first = len(self.solves) == self.attempt_start
-            augmented = any(s["kind"] == "augmentation" for s in self.solves[self.attempt_start:])
-            self.kind = "increment" if first else "augmentation" if chord_start else \
-                "after the augmentations" if augmented and not loose else "search again"
+            self.kind = "increment" if first else "search again" if self.searched else \
+                "augmentation" if chord_start else "at the usual tolerances"
+            self.searched = False
             return solve(x, chord_start=chord_start, loose=loose)
-        newton.solve = labelled
+        newton.solve, newton.update_pattern = labelled, searching
 
     def begin_attempt(self):
         self.attempt_start = len(self.solves)
@@ -99,16 +103,18 @@ class Residuals:
         return table
 
     def orders(self):
-        """Per converged solve, the order of its last step with a new tangent that starts in the
-        convergent regime (its residual at most a tenth of the largest in the solve, s) and ends
-        above round-off: log(r_k / s) / log(r_k-1 / s), about 2 for Newton's quadratic
-        convergence (r_k = s (r_k-1 / s)^2), 1 for a step that contracts no faster than the
-        residual's scale. Solves that end before such a step (loose ones, one-step ones) give none."""
+        """Per solve outside the failed increments, the order of its last step with a new tangent
+        that starts after the solve's largest residual s and at most s / 10 (the convergent
+        regime) and ends above round-off: log(r_k / s) / log(r_k-1 / s), 2 for Newton's quadratic
+        convergence (r_k = s (r_k-1 / s)^2); a linear contraction r_k = c r_k-1 gives
+        1 + log c / log(r_k-1 / s). Solves without such a step (a single step from their
+        largest residual, or only chord steps) give none."""
         orders = []
         for solve in self.solves:
             r, new = solve["norms"], solve["new_tangent"]  # step k (1, 2, ...) takes r[k-1] to r[k]
-            scale = max(r)
-            steps = [k for k in range(1, len(r)) if new[k - 1] and r[k] > ROUND_OFF and r[k - 1] <= 0.1 * scale]
+            scale, peak = max(r), r.index(max(r))
+            steps = [k for k in range(peak + 1, len(r))
+                     if new[k - 1] and r[k] > ROUND_OFF and r[k - 1] <= 0.1 * scale]
             if steps and solve["kind"] != "failed increment":
                 k = steps[-1]
                 orders.append(math.log(r[k] / scale) / math.log(r[k - 1] / scale))
