@@ -10,6 +10,7 @@ from scipy.optimize import brentq
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import sphere_pressure, uniaxial_nominal_stress
 from eyeball_fenicsx.features.cavity import LiquidCavity
+from eyeball_fenicsx.system import newton
 from eyeball_fenicsx.system.newton import PREFIX, STAGNATION_WINDOW
 
 SYMMETRY = [ef.Dirichlet("sym_x", {"x": 0.0}), ef.Dirichlet("sym_y", {"y": 0.0}), ef.Dirichlet("sym_z", {"z": 0.0})]
@@ -90,21 +91,39 @@ def test_blocks_follow_the_problem(sphere_mesh):
 # 2. Stagnation
 
 
-def test_newton_without_an_equilibrium_stops_as_stagnated(sphere_mesh):
+def sphere_beyond_its_largest_pressure(sphere_mesh):
     """A thin neo-Hookean sphere (B/A = 1.1) under 1.2 times its largest pressure (Ogden 1984,
-    eq. 5.2.38: the pressure has a maximum in the inner stretch) has no equilibrium. Newton
-    without a line search, with the 30 iterations a contact scene gets, must stop as soon as
-    its residual stops falling, not spend them."""
+    eq. 5.2.38: the pressure has a maximum in the inner stretch): it has no equilibrium."""
     c = {(1, 0): 0.5}
     p_max = max(sphere_pressure(lam, c, 1.0, 1.1) for lam in np.linspace(1.05, 2.0, 400))
-    scene = ef.Scene("beyond", sphere_mesh(n=6, layers=2, outer_radius=1.1), {"wall": ef.MooneyRivlin(c)},
-                     features=SYMMETRY + [ef.Pressure("inner", 1.2 * p_max)],
-                     solver=ef.SolverSettings(increments=1, max_cutbacks=0))
+    return ef.Scene("beyond", sphere_mesh(n=6, layers=2, outer_radius=1.1), {"wall": ef.MooneyRivlin(c)},
+                    features=SYMMETRY + [ef.Pressure("inner", 1.2 * p_max)],
+                    solver=ef.SolverSettings(increments=1, max_cutbacks=0))
+
+
+def test_newton_without_an_equilibrium_stops_as_stagnated(sphere_mesh, monkeypatch):
+    """The sphere beyond its largest pressure: Newton without a line search, with the 30
+    iterations a contact scene gets, must stop as soon as its residual stops falling, not spend
+    them (with the swing check, the next test, off)."""
+    monkeypatch.setattr(newton, "MAX_STEP_GROWTH", np.inf)
+    scene = sphere_beyond_its_largest_pressure(sphere_mesh)
     with petsc_options(snes_linesearch_type="basic", snes_max_it=30), \
             pytest.raises(ef.ConvergenceError, match="last try: stagnated"):
         scene.run()
     iterations = len(scene.newton.residual_norms) - 1
     assert iterations <= STAGNATION_WINDOW + 3  # the window, counted from the first iterate, and one or two more
+
+
+def test_newton_steps_that_grow_end_the_solve(sphere_mesh):
+    """The sphere beyond its largest pressure inflates without bound: Newton's steps grow, and
+    the one that would move the wall MAX_STEP_GROWTH times farther than the first step ends the
+    solve, before any step that long is taken and before stagnation would."""
+    scene = sphere_beyond_its_largest_pressure(sphere_mesh)
+    with petsc_options(snes_linesearch_type="basic", snes_max_it=30), \
+            pytest.raises(ef.ConvergenceError, match="last try: a Newton step 3 times the first"):
+        scene.run()
+    iterations = len(scene.newton.residual_norms) - 1
+    assert iterations < STAGNATION_WINDOW + 1  # stagnation needs the window's iterates after the first
 
 
 # ---------------------------------------------------------------------------------------------

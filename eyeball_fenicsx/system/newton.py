@@ -51,13 +51,22 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   line search, up to ``MAX_STEP_HALVINGS`` times, whatever the line search (after the contact
   onset limit, ``ActiveSet.step_fraction``); one that still inverts ends the solve ("inverting
   step") with the element's location. A secant predictor that would invert an element is
-  halved alike, or dropped.
+  halved alike, or dropped;
+* swings: a Newton step that would move a free node MAX_STEP_GROWTH times farther than the
+  solve's first step did (as solved, before any limit) and farther than MIN_STEP_WATCHED of the
+  body's diagonal ends the solve at once ("a Newton step 3 times the first"), and the
+  increment is cut back: the first step is the linear response to the increment's load, and
+  the steps after it correct it; steps that grow are a soft mode taking over (the buckled eye
+  swinging sideways on its optic nerve, several millimetres a step, while the band's contact
+  is not yet all round) or a load beyond the structure's limit, which stagnation would stop
+  only some iterations later.
 """
 from __future__ import annotations
 
 import contextlib
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .linear_solvers import linear_solver
@@ -77,6 +86,8 @@ LOOSE_RTOL = 1e-3  # the relative tolerance of a loose solve (an augmentation's,
 POLISH = 0.1  # after a chord step, converged means this far below the tolerances
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
 MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
+MAX_STEP_GROWTH = 3.0  # a Newton step this many times the solve's first ends it (a swing, not a correction)
+MIN_STEP_WATCHED = 0.01  # ... unless it moves no node by this fraction of the body's diagonal
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
 _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
 _SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
@@ -99,6 +110,11 @@ class NewtonSolver:
         self.reuse_contraction = SolverSettings.reuse_contraction
         self.reused = False  # the last Newton step reused a factorization
         self.chord_start = False  # the next solve starts with the last factorization
+        X = problem.solid.mesh_data.mesh.geometry.x
+        lo, hi = np.empty(3), np.empty(3)
+        problem.comm.Allreduce(X.min(axis=0), lo, op=MPI.MIN)
+        problem.comm.Allreduce(X.max(axis=0), hi, op=MPI.MAX)
+        self.body_size = float(np.linalg.norm(hi - lo))
         self.snes = snes = PETSc.SNES().create(problem.comm)
         snes.setOptionsPrefix(prefix)
         snes.setFunction(problem.F, problem.b)
@@ -170,7 +186,9 @@ class NewtonSolver:
         """Line-search precheck: shorten the Newton step x -> x - y where it would close a
         contact gap too far (``ActiveSet.step_fraction``) or invert an element
         (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
-        however short is not taken: y is zeroed and the solve ends as "inverting step"."""
+        however short, or that swings (``_swings``), is not taken: y is zeroed and the solve ends."""
+        if self.first_step is None:  # the Newton step as solved, before any limit
+            self.first_step = self._step_length(y)
         fraction = 1.0
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
@@ -179,10 +197,24 @@ class NewtonSolver:
                 y.scale(fraction)
         halvings = self.shorten_while_inverting(x, y)
         self.step_halvings.append(halvings)
+        if halvings is not None and self._swings(y):
+            self.stopped = f"a Newton step {MAX_STEP_GROWTH:g} times the first"
+            y.zeroEntries()
+            return True
         if halvings is None:
             self.stopped = f"inverting step, halved {MAX_STEP_HALVINGS} times"
             y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
         return fraction < 1.0 or halvings != 0
+
+    def _step_length(self, y):
+        """The largest displacement change of a free node in the step y (collective)."""
+        rows = dict(self.problem.residual_blocks)["force"]
+        return self.problem.comm.allreduce(float(np.abs(y.array_r[rows]).max(initial=0.0)), op=MPI.MAX)
+
+    def _swings(self, y):
+        """Whether the step y, as it will be taken, is a swing: longer than MAX_STEP_GROWTH times
+        the solve's first step and than MIN_STEP_WATCHED of the body's diagonal (collective)."""
+        return self._step_length(y) > max(MAX_STEP_GROWTH * self.first_step, MIN_STEP_WATCHED * self.body_size)
 
     def shorten_while_inverting(self, x: PETSc.Vec, y: PETSc.Vec) -> int | None:
         """Halve the step x -> x - y while it would invert an element (det F <= 0 at one of its
@@ -296,6 +328,7 @@ class NewtonSolver:
         self.tangents = 0
         self.step_halvings = []  # per Newton step: halvings of the step (None: it inverted however short)
         self.stopped = None  # or why the solve stopped where PETSc has no reason of its own
+        self.first_step = None
         self.problem.inverted = None
         with self._our_defaults():  # MUMPS reads its options when it factorizes
             self.snes.solve(None, x)

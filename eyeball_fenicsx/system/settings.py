@@ -15,7 +15,9 @@ class SolverSettings:
     """Load stepping of each step of the load path.
 
     Args:
-        increments: initial number of equal load increments of a step.
+        increments: initial number of equal load increments of a step. 1: each step is tried
+            whole, and cut back where that fails (the planning matrix of the buckle scenes takes
+            0.9 of the time it takes from 2, benchmarks/README.md).
         max_cutbacks: the smallest increment is the initial one halved this many times;
             an increment that fails at that size ends the run.
         growth: the largest factor by which an increment grows after a converged one; it
@@ -32,7 +34,7 @@ class SolverSettings:
             (system/linear_solvers.py); they give the same converged answer.
     """
 
-    increments: int = 2
+    increments: int = 1
     max_cutbacks: int = 10
     growth: float = 2.0
     easy_iterations: int = 8
