@@ -52,9 +52,9 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   onset limit, ``ActiveSet.step_fraction``); one that still inverts ends the solve ("inverting
   step") with the element's location. A secant predictor that would invert an element is
   halved alike, or dropped;
-* swings: a Newton step that would move a free node MAX_STEP_GROWTH times farther than the
-  solve's first step did (as solved, before any limit) and farther than MIN_STEP_WATCHED of the
-  body's diagonal ends the solve at once ("a Newton step 3 times the first"), and the
+* swings: a Newton step whose largest change of a free displacement component is more than
+  MAX_STEP_GROWTH times the solve's first step's (as solved, before any limit) and more than
+  MIN_STEP_WATCHED of the body's diagonal ends the solve at once ("a Newton step 3 times the first"), and the
   increment is cut back: the first step is the linear response to the increment's load, and
   the steps after it correct it; steps that grow are a soft mode taking over (the buckled eye
   swinging sideways on its optic nerve, several millimetres a step, while the band's contact
@@ -87,7 +87,7 @@ POLISH = 0.1  # after a chord step, converged means this far below the tolerance
 STAGNATION_WINDOW = 4  # Newton iterations without a new smallest scaled residual: stagnated
 MAX_STEP_HALVINGS = 6  # a step that inverts an element is halved at most this often (to 1/64)
 MAX_STEP_GROWTH = 3.0  # a Newton step this many times the solve's first ends it (a swing, not a correction)
-MIN_STEP_WATCHED = 0.01  # ... unless it moves no node by this fraction of the body's diagonal
+MIN_STEP_WATCHED = 0.01  # ... unless no displacement component changes by this fraction of the body's diagonal
 _CHORD_STEPS = 30  # a bound on the chord steps of one solve, beyond snes_max_it
 _SYMMETRY_TOLERANCE = 1e-12  # |A - A^T| entrywise, relative to the largest row sum of |A|
 _SYMMETRY_CHECK = PETSc.Log.Event("EyeSymmetryCheck")
@@ -112,8 +112,8 @@ class NewtonSolver:
         self.chord_start = False  # the next solve starts with the last factorization
         X = problem.solid.mesh_data.mesh.geometry.x
         lo, hi = np.empty(3), np.empty(3)
-        problem.comm.Allreduce(X.min(axis=0), lo, op=MPI.MIN)
-        problem.comm.Allreduce(X.max(axis=0), hi, op=MPI.MAX)
+        problem.comm.Allreduce(X.min(axis=0, initial=np.inf), lo, op=MPI.MIN)  # a rank may hold no node
+        problem.comm.Allreduce(X.max(axis=0, initial=-np.inf), hi, op=MPI.MAX)
         self.body_size = float(np.linalg.norm(hi - lo))
         self.snes = snes = PETSc.SNES().create(problem.comm)
         snes.setOptionsPrefix(prefix)
@@ -207,14 +207,15 @@ class NewtonSolver:
         return fraction < 1.0 or halvings != 0
 
     def _step_length(self, y):
-        """The largest displacement change of a free node in the step y (collective)."""
+        """The largest change of a free displacement component in the step y (collective)."""
         rows = dict(self.problem.residual_blocks)["force"]
         return self.problem.comm.allreduce(float(np.abs(y.array_r[rows]).max(initial=0.0)), op=MPI.MAX)
 
     def _swings(self, y):
         """Whether the step y, as it will be taken, is a swing: longer than MAX_STEP_GROWTH times
         the solve's first step and than MIN_STEP_WATCHED of the body's diagonal (collective)."""
-        return self._step_length(y) > max(MAX_STEP_GROWTH * self.first_step, MIN_STEP_WATCHED * self.body_size)
+        first = self.first_step if np.isfinite(self.first_step) else 0.0
+        return self._step_length(y) > max(MAX_STEP_GROWTH * first, MIN_STEP_WATCHED * self.body_size)
 
     def shorten_while_inverting(self, x: PETSc.Vec, y: PETSc.Vec) -> int | None:
         """Halve the step x -> x - y while it would invert an element (det F <= 0 at one of its
@@ -255,7 +256,7 @@ class NewtonSolver:
         """Every block of the residual below its tolerance, max(snes_rtol * its largest norm
         in this solve, snes_atol), POLISH times stricter after a chord step that still
         contracted (see the module docstring); at most ``max_tangents`` steps with a new
-        tangent; stagnation and inverting steps end the solve."""
+        tangent; stagnation, inverting steps and swings end the solve."""
         xnorm, step, fnorm = norms
         rtol, atol, stol, _ = snes.getTolerances()
         if its == 0:

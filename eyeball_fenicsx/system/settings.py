@@ -17,7 +17,8 @@ class SolverSettings:
     Args:
         increments: initial number of equal load increments of a step. 1: each step is tried
             whole, and cut back where that fails (the planning matrix of the buckle scenes takes
-            0.9 of the time it takes from 2, benchmarks/README.md).
+            0.9 of the time it takes from 2, benchmarks/README.md); the smallest increment is
+            then 1/1024 of a step.
         max_cutbacks: the smallest increment is the initial one halved this many times;
             an increment that fails at that size ends the run.
         growth: the largest factor by which an increment grows after a converged one; it
