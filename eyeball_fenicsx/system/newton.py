@@ -197,13 +197,13 @@ class NewtonSolver:
                 y.scale(fraction)
         halvings = self.shorten_while_inverting(x, y)
         self.step_halvings.append(halvings)
-        if halvings is not None and self._swings(y):
-            self.stopped = f"a Newton step {MAX_STEP_GROWTH:g} times the first"
-            y.zeroEntries()
-            return True
         if halvings is None:
             self.stopped = f"inverting step, halved {MAX_STEP_HALVINGS} times"
+        elif self._swings(y):
+            self.stopped = f"a Newton step {MAX_STEP_GROWTH:g} times the first"
+        if self.stopped:
             y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
+            return True
         return fraction < 1.0 or halvings != 0
 
     def _step_length(self, y):
