@@ -9,13 +9,12 @@
   ``MAX_SEARCHES`` times in an increment (then it is cut back).
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
   augmented Lagrangian of contact, which solves again in a step's last increment only). Those
-  solves, and the first one of every increment when the scene has active sets, are loose
-  (``NewtonSolver.solve``: the residual cut by 1 / LOOSE_RTOL; the augmentations' from the
-  last factorization) while the multipliers move, as in inexact Uzawa methods (Elman and
-  Golub, SIAM J. Numer. Anal. 31 (1994) 1645). An increment inside a step ends there, with its
-  one multiplier update: a point on the load path, which no one reads, and a start for the
-  next. A step's last solve, once the features accept the state, is at the usual tolerances
-  with a new tangent; the features then check the state again.
+  solves, and the first one of a step's last increment when the scene has active sets, are
+  loose (``NewtonSolver.solve``: the residual cut by 1 / LOOSE_RTOL; the augmentations' from
+  the last factorization) while the multipliers move, as
+  in inexact Uzawa methods (Elman and Golub, SIAM J. Numer. Anal. 31 (1994) 1645), and the
+  last, once the features accept the state, is at the usual tolerances with a new tangent; the
+  features then check the state again.
 * The last increment of a step takes what is left of the step if that is less than
   ``STRETCH`` times its size (no sliver of an increment left over).
 * Increment size: after a converged increment that factorized n tangents, the next one is
@@ -173,7 +172,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     newton.update_pattern()
     final = load_factor >= 1.0 - 1e-12
     problem.set_increment(final)
-    loose = bool(problem.active_sets)  # x will converge at the loose tolerances only
+    loose = final and bool(problem.active_sets)  # x will converge at the loose tolerances only
     converged, its, norm, reason = newton.solve(x, loose=loose)
     settled, searches = x.duplicate(), 0
     while converged:
@@ -186,7 +185,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
             its, searches = its + more, searches + 1
             continue
         done = problem.augment()
-        if done and not (loose and final):  # at the usual tolerances, or a point on the path inside the step
+        if done and not loose:
             break
         # an augmentation's solve is loose until the multipliers settle; one more, at the
         # usual tolerances, then ends the increment (the augmentation checks it again)
