@@ -131,11 +131,11 @@ class ContactFeature(Feature):
         """The selection, which of its points carry force, and their pressure and stiffness."""
         sel = self._selection_now()
         multiplier = self._point_multipliers()[sel.point]
-        p, k = pressure(sel.g, multiplier, self.alpha[sel.point], self.smoothing)
+        p, k = pressure(sel.g, multiplier, self.alpha[sel.point], self.smoothing, self.adjusted[sel.point])
         if self.smoothing > 0.0:
             on = sel.g - multiplier / self.alpha[sel.point] < self.reach
         else:
-            on = p > 0.0
+            on = k > 0.0
         return sel, on, p, k
 
     def _state(self, tangent):
@@ -373,6 +373,7 @@ class ContactFeature(Feature):
                              f"elements at its slave surface ({size:.3g} mm): the smoothed law would push the "
                              "surfaces apart before they touch; give a small fraction of it, or none")
         self.solid = solid
+        self.adjusted = np.zeros(len(self.weight), dtype=bool)  # points whose mesh clearance is closed (pair.py)
         self._work = fem.Function(solid.W)
         self.node_multiplier = np.zeros(len(self._work.x.array))
         self._num_owned = solid.W.dofmap.index_map.size_local

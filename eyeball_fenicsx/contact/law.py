@@ -17,12 +17,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def pressure(g: np.ndarray, multiplier: np.ndarray, alpha: np.ndarray,
-             smoothing: float) -> tuple[np.ndarray, np.ndarray]:
-    """Contact pressure p (>= 0) and its stiffness k = -dp/dg at gaps g."""
+def pressure(g: np.ndarray, multiplier: np.ndarray, alpha: np.ndarray, smoothing: float,
+             touching: np.ndarray | bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Contact pressure p (>= 0) and its stiffness k = -dp/dg at gaps g; a ``touching`` point
+    (sharp law) has the stiffness at p = 0 too, so that surfaces that touch with no pressure
+    yet are in the tangent (a clearance closed at the start, ``ContactPair``'s ``adjust``)."""
     shifted = multiplier / alpha - g
     if smoothing > 0.0:
         s = shifted / smoothing
         return alpha * smoothing * np.logaddexp(0.0, s), alpha * 0.5 * (1.0 + np.tanh(0.5 * s))
     p = alpha * np.maximum(shifted, 0.0)
-    return p, np.where(shifted > 0.0, alpha, 0.0)
+    return p, np.where((shifted > 0.0) | (touching & (shifted == 0.0)), alpha, 0.0)

@@ -16,8 +16,11 @@ slides changes its cost only. Two
 segments at an edge give the same foot there, and exact ties go to the segment with the
 smallest reference centroid (lexicographic), a rule that does not depend on the partition.
 A point farther inside than the element under the segment is on its far side, not in
-contact. Nothing is remembered between evaluations but where each projection's Newton starts
-(the foot found last time on the same segment, until the next search).
+contact. With ``adjust``, a point whose gap in the mesh is within that clearance measures its
+gap from it and is in the tangent at zero pressure (``law.py``): the surfaces touch from the
+start, as Abaqus' contact ADJUST places them, without moving a node. Nothing is remembered
+between evaluations but where each projection's Newton starts (the foot found last time on the
+same segment, until the next search).
 
 The matrix has room for every (slave facet, segment) pair a search finds; it is preallocated
 anew when a search finds a pair it has no room for, and at the first increment of every step
@@ -73,18 +76,24 @@ class ContactPair(ContactFeature):
             default): sharp. An expert's knob.
         symmetry: the axes ("x", "y", "z") whose coordinate planes are symmetry planes of a
             partial model: the master's nodes on them take normals in the plane.
+        adjust: a clearance (mm) closed at the start: each point whose gap in the mesh is at most
+            this, either way, measures its gap from that one, so the surfaces touch from the start
+            (Abaqus' contact ADJUST, done as an offset of the gap instead of moving nodes): a
+            buckle meshed clear of the sclera then rests on it. 0 (the default): the mesh's gaps.
     """
 
     symmetric_tangent = False  # the pressure acts along the smoothed normal, not a gap's gradient
 
     def __init__(self, name: str, slave: str, master: str, penalty: float | None = None, step: int = 0,
-                 smoothing: float = 0.0, symmetry: Sequence[str] = ()):
+                 smoothing: float = 0.0, symmetry: Sequence[str] = (), adjust: float = 0.0):
         if slave == master:
             raise SceneError(f"contact {name!r}: slave and master are both {slave!r}; name two surfaces")
         if not set(symmetry) <= {"x", "y", "z"}:
             raise SceneError(f"contact {name!r}: symmetry must list axes among 'x', 'y', 'z', got {symmetry!r}")
+        if not adjust >= 0.0:
+            raise SceneError(f"contact {name!r}: adjust must be a clearance of zero or more (mm), got {adjust!r}")
         super().__init__(name, slave, penalty, step, smoothing)
-        self.master_name, self.symmetry = master, tuple(symmetry)
+        self.master_name, self.symmetry, self.adjust = master, tuple(symmetry), float(adjust)
 
     def setup(self, solid: MixedSolid) -> None:
         comm = solid.comm
@@ -121,6 +130,11 @@ class ContactPair(ContactFeature):
         self.motion = 0.0
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._search()
+        self._offset = np.zeros(len(self.weight))
+        if self.adjust > 0.0:  # the gaps in the mesh (the reference state), closed where within adjust
+            sel = self._select(self._positions())
+            self.adjusted[sel.point] = np.abs(sel.g) <= self.adjust
+            self._offset[sel.point] = np.where(self.adjusted[sel.point], sel.g, 0.0)
         self.candidate_keys = self._keys()
         self._set_pattern(self.candidate_keys)
 
@@ -229,7 +243,8 @@ class ContactPair(ContactFeature):
         c = self.table.centroid[seg]
         order = np.lexsort((c[:, 2], c[:, 1], c[:, 0], np.abs(g), point))
         first = order[np.r_[True, point[order][1:] != point[order][:-1]]] if len(order) else order
-        return Selection(point[first], seg[first], g[first], proj.take(np.flatnonzero(ok)[first]))
+        return Selection(point[first], seg[first], g[first] - self._offset[point[first]],
+                         proj.take(np.flatnonzero(ok)[first]))
 
     def _forces(self, sel, index, p, k, tangent):
         point, seg = sel.point[index], sel.target[index]
@@ -262,7 +277,7 @@ class ContactPair(ContactFeature):
             f = np.broadcast_to(fraction, point[index].shape)
             return project(xs[index] + f[:, None] * dxs[index], self.point_N[point[index]],
                            xm[index] + f[:, None, None] * dxm[index], rows.rows(index), self.kind,
-                           start=sel.projection.xi[index]).g
+                           start=sel.projection.xi[index]).g - self._offset[point[index]]
         return point, sel.g, gaps
 
     def _loaded_nodes(self, point):

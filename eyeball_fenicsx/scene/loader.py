@@ -28,6 +28,7 @@ Extensions beyond the contract (documented in README.md):
   (an override of ``materials.<region>...`` reaches the set's table);
 * ``[[contact]] smoothing`` (mm): the penalty law smoothed over that length (contact/law.py);
   ``symmetry`` (axes): the model's symmetry planes, where the master's normals lie in the plane;
+  ``adjust`` (mm): a clearance in the mesh closed at the start (contact/pair.py);
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
   ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;

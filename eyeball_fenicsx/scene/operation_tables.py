@@ -158,7 +158,7 @@ def read_contact(reading: Reading) -> None:
     """``[[contact]]``: a deformable pair (``master``) or a rigid body (``rigid``)."""
     names = set()
     for t in reading.array("contact", {"name", "slave", "master", "rigid", "penalty", "smoothing", "step",
-                                       "symmetry"}):
+                                       "symmetry", "adjust"}):
         names.add(t.unique_name("contact", names))
         feature, surfaces = contact_table(t, reading.step_of)
         reading.features.append(feature)
@@ -175,11 +175,14 @@ def contact_table(t: Table, step_of: Callable[[Table], int]) -> tuple[ContactPai
         raise t.error("give exactly one of master (a surface) or rigid (a rigid body)")
     if t.has("master"):
         master, step, symmetry = t.get("master", "string"), step_of(t), t.get("symmetry", "strings", [])
+        adjust = t.get("adjust", "nonnegative", 0.0)
         with t.located():  # the pair's own checks: slave and master differ
             return ContactPair(name, slave, master, penalty=penalty, step=step, smoothing=smoothing,
-                               symmetry=symmetry), [slave, master]
+                               symmetry=symmetry, adjust=adjust), [slave, master]
     if t.has("symmetry"):
         raise t.error("symmetry applies to a master surface (its nodes on the planes); a rigid body has none")
+    if t.has("adjust"):
+        raise t.error("adjust applies to two meshed surfaces (the clearance between them); a rigid body has none")
     rigid = t.data["rigid"]
     if not isinstance(rigid, dict):
         raise t.error(f'rigid must be a table, e.g. rigid = {{ shape = "plane", point = [0.0, 0.0, 1.0], '
