@@ -171,6 +171,20 @@ def test_smoothed_law_is_the_penalty_away_from_contact():
     assert -dp == pytest.approx(pressure(g, np.full(2, 0.01), alpha, delta)[1], rel=1e-7)
 
 
+def test_a_touching_point_has_the_penalty_stiffness_at_zero_pressure():
+    """At g = 0 with no multiplier the sharp law presses with p = 0. A point that touches (a
+    clearance closed at the start, ``ContactPair``'s adjust) takes the stiffness of the side it
+    is pressed into, -dp/dg from g < 0 (alpha): Newton's first step sees the surfaces press; one
+    that does not, the open side's (0)."""
+    alpha, h = np.array([3.0, 3.0]), 1e-6
+    p, k = pressure(np.zeros(2), np.zeros(2), alpha, 0.0, np.array([True, False]))
+    pressed = pressure(np.full(2, -h), np.zeros(2), alpha, 0.0)[0]
+    opened = pressure(np.full(2, h), np.zeros(2), alpha, 0.0)[0]
+    assert np.all(p == 0.0)
+    assert k[0] == pytest.approx((pressed[0] - p[0]) / h, rel=1e-9)
+    assert k[1] == pytest.approx(-(opened[1] - p[1]) / h, abs=1e-12)
+
+
 @pytest.mark.parametrize("shape, point", [
     (Sphere([0, 0, 0], 1.0), [0.5, 0.4, 0.3]),
     (Sphere([0, 0, 0], 1.0, inside=True), [0.8, 0.7, 0.3]),

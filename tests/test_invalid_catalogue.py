@@ -242,6 +242,8 @@ CASES = {
                                         "a rigid body has none"]),
     "contact-adjust-negative": (SOLID + contact(master='"x1"', adjust="-0.05"),
                                 ["[[contact]] #1", "adjust", "-0.05"]),
+    "contact-adjust-beyond-the-search": (SOLID + contact(master='"x1"', adjust="50.0"),
+                                         ["contact 'c'", "adjust 50 mm is beyond the contact search's reach"]),
     "contact-symmetry-unknown-axis": (SOLID + contact(master='"x1"', symmetry='["w"]'),
                                       ["[[contact]] #1", "contact 'c'", "symmetry must list axes", "['w']"]),
     "contact-rigid-not-a-table": (SOLID + contact(rigid='"plane"'),

@@ -76,7 +76,8 @@ _ADD = PETSc.InsertMode.ADD_VALUES
 @dataclasses.dataclass
 class Selection:
     """The points that project on something at a state, what on (a segment, or -1), their
-    gaps, and (a deformable pair) their ``geometry.Projection``."""
+    gaps (less the gap in the mesh where ``ContactPair``'s adjust closes it), and (a deformable
+    pair) their ``geometry.Projection``."""
 
     point: np.ndarray
     target: np.ndarray

@@ -6,7 +6,8 @@ point (the pressure of the last augmentation), the contact pressure is
     p = <lambda - alpha g>_+                                   (sharp),
     p = alpha delta log(1 + exp((lambda / alpha - g) / delta))  (smoothed over delta),
 
-and its stiffness k = -dp/dg is alpha where p > 0 (sharp), alpha / (1 + exp(-(lambda/alpha -
+and its stiffness k = -dp/dg is alpha where p > 0 (sharp; and at p = 0 for a point that
+touches, a clearance closed at the start), alpha / (1 + exp(-(lambda/alpha -
 g)/delta)) (smoothed: continuous). Uzawa's update lambda <- p(g) between Newton solves drives
 the penetration to zero where the surfaces press (Simo and Laursen, Comput. Struct. 42
 (1992) 97-116; Wriggers, Computational Contact Mechanics, 2006, sect. 6.3), so the answer

@@ -44,6 +44,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .. import checks
 from ..arrays import distinct_pairs
 from ..errors import SceneError
 from ..mechanics.solid import MixedSolid
@@ -90,10 +91,9 @@ class ContactPair(ContactFeature):
             raise SceneError(f"contact {name!r}: slave and master are both {slave!r}; name two surfaces")
         if not set(symmetry) <= {"x", "y", "z"}:
             raise SceneError(f"contact {name!r}: symmetry must list axes among 'x', 'y', 'z', got {symmetry!r}")
-        if not adjust >= 0.0:
-            raise SceneError(f"contact {name!r}: adjust must be a clearance of zero or more (mm), got {adjust!r}")
+        adjust = checks.number(adjust, f"contact {name!r}: adjust", "nonnegative")
         super().__init__(name, slave, penalty, step, smoothing)
-        self.master_name, self.symmetry, self.adjust = master, tuple(symmetry), float(adjust)
+        self.master_name, self.symmetry, self.adjust = master, tuple(symmetry), adjust
 
     def setup(self, solid: MixedSolid) -> None:
         comm = solid.comm
@@ -129,14 +129,24 @@ class ContactPair(ContactFeature):
         self._unreserved, self._new_step, self._assembled = True, False, False
         self.motion = 0.0
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
+        self._offset = np.zeros(len(self.weight))  # each point's gap in the mesh, where adjust closes it
         self._search()
-        self._offset = np.zeros(len(self.weight))
-        if self.adjust > 0.0:  # the gaps in the mesh (the reference state), closed where within adjust
-            sel = self._select(self._positions())
-            self.adjusted[sel.point] = np.abs(sel.g) <= self.adjust
-            self._offset[sel.point] = np.where(self.adjusted[sel.point], sel.g, 0.0)
+        self._close_clearance()
         self.candidate_keys = self._keys()
         self._set_pattern(self.candidate_keys)
+
+    def _close_clearance(self):
+        """``adjust``: the points whose gap in the mesh (the state at setup) is at most adjust, either
+        way, measure their gap from it (collective)."""
+        if self.adjust == 0.0:
+            return
+        if self.adjust > SEARCH_FACTOR * self.largest_segment:
+            raise SceneError(f"contact {self.name!r}: adjust {self.adjust:g} mm is beyond the contact search's reach "
+                             f"({SEARCH_FACTOR * self.largest_segment:.3g} mm, {SEARCH_FACTOR:g} of the master's "
+                             "largest segment): close a smaller clearance")
+        sel = self._select(self._positions())
+        self.adjusted[sel.point] = np.abs(sel.g) <= self.adjust
+        self._offset[sel.point] = np.where(self.adjusted[sel.point], sel.g, 0.0)
 
     # -- positions -----------------------------------------------------------------------
     def master_positions(self) -> np.ndarray:
@@ -212,17 +222,18 @@ class ContactPair(ContactFeature):
         if not self.active:
             return True
         sel, on, _, _ = self._pressures()
-        penetration = self.solid.comm.allreduce(np.max(-sel.g[on], initial=0.0), op=MPI.MAX)
+        raw = sel.g + self._offset[sel.point]  # the distances the search measured (adjust: the mesh's gap back)
+        penetration = self.solid.comm.allreduce(np.max(-raw[on], initial=0.0), op=MPI.MAX)
         slave, master, open_side = self._moved()[2]
         return slave + master + max(open_side, penetration) <= self.search_reach
 
     def _moved(self):
         """The points' and the master's own corners' positions now, and (over all ranks) how far
         each moved since the last search, coordinate-wise, and the largest gap at which a point
-        carries a pressure (collective)."""
+        carries a pressure, as the search measures gaps (adjust's offset added back; collective)."""
         xs, corners = self._slave_points(), self.master.corners(self.solid.w.x.array)
         local = np.array([np.abs(xs - self._last[0]).max(initial=0.0), np.abs(corners - self._last[1]).max(initial=0.0),
-                          self.reach + np.max(self._point_multipliers() / self.alpha, initial=0.0)])
+                          self.reach + np.max(self._point_multipliers() / self.alpha + self._offset, initial=0.0)])
         largest = np.empty(3)
         self.solid.comm.Allreduce(local, largest, op=MPI.MAX)
         return xs, corners, largest
@@ -239,12 +250,11 @@ class ContactPair(ContactFeature):
         # Newton from the feet found last time, where they were on their segment
         self._feet_guess = np.where(proj.inside[:, None], proj.xi, np.asarray(self.kind.centre))
         ok = proj.inside & (-proj.g <= self.table.thickness[seg])
-        point, seg, g = point[ok], seg[ok], proj.g[ok]
+        point, seg, g = point[ok], seg[ok], proj.g[ok] - self._offset[point[ok]]
         c = self.table.centroid[seg]
         order = np.lexsort((c[:, 2], c[:, 1], c[:, 0], np.abs(g), point))
         first = order[np.r_[True, point[order][1:] != point[order][:-1]]] if len(order) else order
-        return Selection(point[first], seg[first], g[first] - self._offset[point[first]],
-                         proj.take(np.flatnonzero(ok)[first]))
+        return Selection(point[first], seg[first], g[first], proj.take(np.flatnonzero(ok)[first]))
 
     def _forces(self, sel, index, p, k, tangent):
         point, seg = sel.point[index], sel.target[index]
