@@ -13,7 +13,7 @@ runs in the order the whole surface would give it.
 (current positions: six numbers per rank). Each rank then sends to every other rank, in one
 ``Alltoallv`` (a neighbourhood exchange: a rank whose box meets none of another's segments
 sends it nothing), those of its segments whose box, widened by the search's reach (a multiple
-of the largest segment's size plus twice the motion since the last search, ``pair.py``), meets that
+of the largest segment's size plus the gaps that carry a pressure, ``pair.py``), meets that
 rank's box: exactly the segments the search could pair with one of its points. A segment
 travels with its patch: the global numbers, reference coordinates and dofs of the patch's
 nodes, the incidences, scales and mirrors of its corners' normals, and the thickness under it.

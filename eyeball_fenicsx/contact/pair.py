@@ -5,11 +5,11 @@ quadrilateral, 3 on a triangle; weights in the reference configuration), as FEBi
 sliding-elastic interface does, so a slave node sitting over a fold of the master is no
 longer one point that must choose a side. Each point is projected along the master's
 continuous normal field (``geometry.py``) on the candidate segments found at the start of
-the increment (``search.py``: within SEARCH_FACTOR times the master's largest segment size,
-plus twice the last increment's motion and the gaps that carry a pressure, coordinate-wise),
-and takes the segment whose foot lies on it and is nearest. The candidates hold every segment
-a point may press on as long as the points and the master's corners have moved, since the
-search, by less than that reach less the range of gaps that carry a pressure
+the increment (``search.py``: within SEARCH_FACTOR times the master's largest segment size
+plus the gaps that carry a pressure, coordinate-wise), and takes the segment whose foot lies
+on it and is nearest. The candidates hold every segment a point may press on as long as the
+points and the master's corners have moved, since the search, by less than that reach less
+the range of gaps that carry a pressure
 (``search_covers``, at every converged state); where they moved farther, the solver searches
 again at that state and solves again (system/stepping.py), so that how far an increment
 slides changes its cost only. Two
@@ -26,8 +26,8 @@ The matrix has room for every (slave facet, segment) pair a search finds; it is 
 anew when a search finds a pair it has no room for, and at the first increment of every step
 (unless no tangent was assembled in it yet and the search found the pairs it was made for),
 so that a step's arithmetic depends on the state it starts from only: a step resumed from a
-checkpoint (output/checkpoint.py, which keeps the displacement of the last search and its
-motion) repeats the interrupted run's to the bit.
+checkpoint (output/checkpoint.py, which keeps the displacement of the last search) repeats
+the interrupted run's to the bit.
 
 Parallel: each rank owns the slave facets of its cells, and holds of the master surface only
 the segments whose search boxes meet the box of its slave points, with the nodes their normal
@@ -127,7 +127,6 @@ class ContactPair(ContactFeature):
         self.master = DistributedMaster(comm, tables, master, self.symmetry)
         self.largest_segment = comm.allreduce(float(self.master.size.max(initial=0.0)), op=MPI.MAX)
         self._unreserved, self._new_step, self._assembled = True, False, False
-        self.motion = 0.0
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._offset = np.zeros(len(self.weight))  # each point's gap in the mesh, where adjust closes it
         self._search()
@@ -174,13 +173,12 @@ class ContactPair(ContactFeature):
         return self._slave_points(), self.master_positions()
 
     def checkpoint_state(self) -> dict:
-        """The base's state, the displacement the last search saw (a dof array) and its motion:
-        the next search's reach."""
-        return {**super().checkpoint_state(), "searched": self._searched, "motion": float(self.motion)}
+        """The base's state and the displacement the last search saw (a dof array)."""
+        return {**super().checkpoint_state(), "searched": self._searched}
 
     def restore_state(self, state: dict) -> None:
         super().restore_state(state)
-        self._searched, self.motion = state["searched"], state["motion"]
+        self._searched = state["searched"]
         self._last = (self._slave_points(self._facet_nodes(self._searched)), self.master.corners(self._searched))
 
     # -- search and selection ------------------------------------------------------------
@@ -190,12 +188,11 @@ class ContactPair(ContactFeature):
         start = time.perf_counter()
         values = self.solid.w.x.array
         xs, corners, moved = self._moved()
-        self.motion = max(moved[:2]) or self.motion
         self._last, self._searched = (xs, corners), values.copy()
         exchange = time.perf_counter()
         # SEARCH_FACTOR times the largest segment, the same for all (so that ``search_covers`` holds
-        # for every segment), twice the last motion, and the gaps at which a point carries a pressure
-        reach = self.search_reach = SEARCH_FACTOR * self.largest_segment + 2.0 * self.motion + moved[2]
+        # for every segment), and the gaps at which a point carries a pressure
+        reach = self.search_reach = SEARCH_FACTOR * self.largest_segment + moved[2]
         table = self.table = self.master.exchange(xs, corners, reach)
         self._selection = None  # its segments were the last table's
         self.timing["exchange"] += time.perf_counter() - exchange
