@@ -366,8 +366,8 @@ def test_sliding_block_crosses_many_master_elements_with_quadratic_newton(slid_i
 
 
 def test_block_dragged_past_its_search_in_one_increment_ends_where_small_increments_do(slid_in_small_increments):
-    """Dragged 1.5 in one increment, the points move six times the search's reach (0.7 of a
-    master element's edge, the motion unknown yet): the converged state's check searches again
+    """Dragged 1.5 in one increment, the points move six times the search's reach (half the
+    master's segment size, 0.7 of its edge): the converged state's check searches again
     and solves again. Without it every point would have lost its candidates and the block would
     sink into the base with no contact force. An elastic, frictionless state does not depend on
     the path: the forces are those of 24 increments, to the augmented Lagrangian's tolerance."""

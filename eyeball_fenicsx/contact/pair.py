@@ -26,8 +26,7 @@ The matrix has room for every (slave facet, segment) pair a search finds; it is 
 anew when a search finds a pair it has no room for, and at the first increment of every step
 (unless no tangent was assembled in it yet and the search found the pairs it was made for),
 so that a step's arithmetic depends on the state it starts from only: a step resumed from a
-checkpoint (output/checkpoint.py, which keeps the displacement of the last search) repeats
-the interrupted run's to the bit.
+checkpoint (output/checkpoint.py) repeats the interrupted run's to the bit.
 
 Parallel: each rank owns the slave facets of its cells, and holds of the master surface only
 the segments whose search boxes meet the box of its slave points, with the nodes their normal
@@ -172,23 +171,13 @@ class ContactPair(ContactFeature):
     def _positions(self):
         return self._slave_points(), self.master_positions()
 
-    def checkpoint_state(self) -> dict:
-        """The base's state and the displacement the last search saw (a dof array)."""
-        return {**super().checkpoint_state(), "searched": self._searched}
-
-    def restore_state(self, state: dict) -> None:
-        super().restore_state(state)
-        self._searched = state["searched"]
-        self._last = (self._slave_points(self._facet_nodes(self._searched)), self.master.corners(self._searched))
-
     # -- search and selection ------------------------------------------------------------
     def _search(self):
         """Candidate segments of each point, from the current positions (collective: the master
         segments near this rank's points are exchanged first, master.py)."""
         start = time.perf_counter()
-        values = self.solid.w.x.array
         xs, corners, moved = self._moved()
-        self._last, self._searched = (xs, corners), values.copy()
+        self._last = xs, corners
         exchange = time.perf_counter()
         # SEARCH_FACTOR times the largest segment, the same for all (so that ``search_covers`` holds
         # for every segment), and the gaps at which a point carries a pressure
