@@ -9,10 +9,9 @@ the increment (``search.py``: within SEARCH_FACTOR times the master's largest se
 plus the gaps that carry a pressure, coordinate-wise), and takes the segment whose foot lies
 on it and is nearest. The candidates hold every segment a point may press on as long as the
 points and the master's corners have moved, since the search, by less than that reach less
-the range of gaps that carry a pressure
-(``search_covers``, at every converged state); where they moved farther, the solver searches
-again at that state and solves again (system/stepping.py), so that how far an increment
-slides changes its cost only. Two
+the range of gaps that carry a pressure (``search_covers``, at every converged state); where
+they moved farther, the solver searches again at that state and solves again
+(system/stepping.py), so that how far an increment slides changes its cost only. Two
 segments at an edge give the same foot there, and exact ties go to the segment with the
 smallest reference centroid (lexicographic), a rule that does not depend on the partition.
 A point farther inside than the element under the segment is on its far side, not in
