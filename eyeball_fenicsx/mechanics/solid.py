@@ -29,7 +29,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..errors import SceneError
-from .kinematics import cauchy_stress, deformation_gradient, von_mises
+from .kinematics import cauchy_stress, cofactor, deformation_gradient, determinant, von_mises
 from .materials import MooneyRivlin, Prestretched
 
 # A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
@@ -126,7 +126,7 @@ class MixedSolid:
 
     def potential(self) -> ufl.Form:
         """The stored energy of all regions with the incompressibility constraint."""
-        J = ufl.det(self.F)
+        J = determinant(self.F)
         terms = []
         for regions, law in self.law_groups():
             dx = self.dx(tuple(self.mesh_data.regions[r] for r in regions))
@@ -141,13 +141,13 @@ class MixedSolid:
         F = ufl.variable(self.F)
         P = ufl.diff(law.strain_energy(F), F)
         if law.incompressible:
-            P = P - self.p * ufl.det(F) * ufl.inv(F).T
+            P = P - self.p * cofactor(F)
         return P
 
     def current_normal_area(self) -> ufl.core.expr.Expr:
         """n da = J F^-T N dA on the boundary (Nanson's formula)."""
         N = ufl.FacetNormal(self.mesh_data.mesh)
-        return ufl.det(self.F) * ufl.inv(self.F).T * N
+        return cofactor(self.F) * N
 
     def surface_dofs(self, surface: str) -> list[np.ndarray]:
         """Local indices in W of the displacement dofs on a named surface, per component."""
