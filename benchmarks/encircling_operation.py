@@ -71,12 +71,12 @@ class Residuals:
             self.searched = True
             update_pattern()
 
-        def labelled(x, chord_start=False, loose=False):
+        def labelled(x, chord_start=False, loose=False, again=False):
             first = len(self.solves) == self.attempt_start
             self.kind = "increment" if first else "search again" if self.searched else \
                 "augmentation" if chord_start else "at the usual tolerances"
             self.searched = False
-            return solve(x, chord_start=chord_start, loose=loose)
+            return solve(x, chord_start=chord_start, loose=loose, again=again)
         newton.solve, newton.update_pattern = labelled, searching
 
     def begin_attempt(self):

@@ -37,7 +37,10 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   norm it had in this Newton solve, or at most ``snes_atol`` (in its own units: N, mm or mm^3
   for a model in mm and MPa). The largest norm, not the first, is the block's scale: a block
   that starts at zero (the pressure rows of a displacement-driven increment) is judged
-  against the imbalance Newton's first step gave it. Every block must have converged;
+  against the imbalance Newton's first step gave it. A solve of the same increment again (after
+  a new contact search, or the one that ends its augmentations) takes the largest norm over all
+  the increment's solves: it starts near convergence, and its own largest norm would ask for
+  round-off. Every block must have converged;
 * stagnation: a Newton solve whose residual, each block divided by its tolerance, has not
   reached a new minimum in ``STAGNATION_WINDOW`` iterations (a cycle, or steps that no longer
   help) stops at once as "stagnated", and the increment is cut back. Minima are counted among
@@ -268,6 +271,7 @@ class NewtonSolver:
         blocks = self._block_norms(snes.getFunction()[0].array_r)
         self.block_norms.append(blocks)
         self.block_scales = np.maximum(self.block_scales, blocks)
+        self.increment_scales = np.maximum(self.increment_scales, blocks)
         tolerances = np.maximum(rtol * self.block_scales, atol)
         contracting = its and fnorm <= self.reuse_contraction * self.residual_norms[-2]
         polish = POLISH if self.reused and contracting else 1.0
@@ -317,15 +321,23 @@ class NewtonSolver:
             with self._our_defaults():
                 pc.setFromOptions()
 
-    def solve(self, x: PETSc.Vec, chord_start: bool = False, loose: bool = False) -> tuple[bool, int, float, str]:
+    def solve(self, x: PETSc.Vec, chord_start: bool = False, loose: bool = False,
+              again: bool = False) -> tuple[bool, int, float, str]:
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
         ``chord_start``: the first step reuses the last factorization (Newton again from a
         converged state whose loads changed a little: an augmentation). ``loose``: converged
         once the residual is LOOSE_RTOL times its start, each block in units of its tolerance
-        (an augmentation's solve, inexact while the multipliers still move)."""
+        (an augmentation's solve, inexact while the multipliers still move). ``again``: the same
+        increment solved again (after a new search, or an augmentation); unless loose, each
+        block's scale is then the largest norm it had in any of the increment's solves, so the
+        tolerances are the increment's, not those of a solve that starts near convergence."""
         self.chord_start, self.loose_rtol = chord_start, LOOSE_RTOL if loose else 0.0
         self.residual_norms = []
-        self.block_norms, self.block_scales = [], np.zeros(len(self.problem.residual_blocks))
+        if not again:
+            self.increment_scales = np.zeros(len(self.problem.residual_blocks))
+        keep = again and not loose
+        self.block_scales = self.increment_scales.copy() if keep else np.zeros_like(self.increment_scales)
+        self.block_norms = []
         self.tangents = 0
         self.step_halvings = []  # per Newton step: halvings of the step (None: it inverted however short)
         self.stopped = None  # or why the solve stopped where PETSc has no reason of its own

@@ -181,7 +181,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
                 converged, reason = False, f"contact points still outrun their search after {searches} more"
                 break
             newton.update_pattern()
-            converged, more, norm, reason = newton.solve(x, loose=loose)
+            converged, more, norm, reason = newton.solve(x, loose=loose, again=True)
             its, searches = its + more, searches + 1
             continue
         done = problem.augment()
@@ -191,7 +191,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
         before = norm, reason, loose
-        converged, more, norm, reason = newton.solve(x, chord_start=not done, loose=not done)
+        converged, more, norm, reason = newton.solve(x, chord_start=not done, loose=not done, again=True)
         its, loose = its + more, not done
         if not converged and not done:  # the augmentation is abandoned: the state before it stands
             settled.copy(x)
