@@ -128,7 +128,6 @@ class NewtonSolver:
             snes.getKSP().getPC().setType("lu")
         self._set_from_options()
         self.residual_norms = []
-        self.increment_scales = np.zeros(len(problem.residual_blocks))  # largest block norms, this increment
         self.step_halvings = []
         self.factorizations = 0  # new tangents (a factorization, or a new preconditioner)
         self.krylov_iterations = 0  # of every solve so far
