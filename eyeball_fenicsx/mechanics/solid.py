@@ -230,7 +230,7 @@ class JacobianGuard:
         msh = solid.mesh_data.mesh
         cell = getattr(basix.CellType, msh.topology.cell_type.name)
         points = basix.make_quadrature(cell, solid.dx.metadata()["quadrature_degree"])[0]
-        self._expr = fem.Expression(ufl.det(solid.F), np.vstack([points, basix.geometry(cell).mean(axis=0)]))
+        self._expr = fem.Expression(determinant(solid.F), np.vstack([points, basix.geometry(cell).mean(axis=0)]))
         num_cells = msh.topology.index_map(msh.topology.dim).size_local
         self._cells = np.arange(num_cells, dtype=np.int32)
         self._midpoints = compute_midpoints(msh, msh.topology.dim, self._cells)
