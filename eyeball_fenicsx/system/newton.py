@@ -132,6 +132,7 @@ class NewtonSolver:
         self.factorizations = 0  # new tangents (a factorization, or a new preconditioner)
         self.krylov_iterations = 0  # of every solve so far
         self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve (the iterative path's: its block's)
+        self.increment_scales = None  # the blocks' largest norms over the increment's solves (solve)
         snes.setMonitor(self._monitor)
 
     @contextlib.contextmanager
@@ -333,7 +334,7 @@ class NewtonSolver:
         tolerances are the increment's, not those of a solve that starts near convergence."""
         self.chord_start, self.loose_rtol = chord_start, LOOSE_RTOL if loose else 0.0
         self.residual_norms = []
-        if not again:
+        if not again or self.increment_scales is None:  # an increment's first solve
             self.increment_scales = np.zeros(len(self.problem.residual_blocks))
         keep = again and not loose
         self.block_scales = self.increment_scales.copy() if keep else np.zeros_like(self.increment_scales)
