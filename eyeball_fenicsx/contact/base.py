@@ -30,13 +30,12 @@ step with the old one). Increments inside a step take one update each, without s
 (it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
-gaps drives the surfaces through each other by the whole step, and the penalty throws them
-apart again. Before each Newton update the step is shortened to where the first closing
-point reaches the depth d = max(f / (alpha W), ONSET_DEPTH h) (f the largest force out of
-balance on the slave nodes, h the thickness of the point's element), found by regula falsi
-along the step. Every point that closes by less than its d in the step closes in it, so
-many gaps close in one Newton step; a step that closes nothing is not touched, which
-leaves the converged answer and Newton's quadratic convergence as they were.
+gaps would drive the surfaces through each other by the whole step. With a factorized tangent
+the step first takes the penalty of the points it would press (compliance.py's closing step).
+Then it is shortened to where the first closing point reaches the depth d = max(f / (alpha W),
+ONSET_DEPTH h) (f the largest force out of balance on the slave nodes, h the thickness of the
+point's element), found by regula falsi along the step. A step that closes nothing is not
+touched, which leaves the converged answer and Newton's quadratic convergence as they were.
 
 A contact feature plays the roles (``features/roles.py``) of nodal assembly of the residual
 and the tangent, and of an active set: the solver watches its search, its onset limit and
@@ -54,6 +53,7 @@ from petsc4py import PETSc
 
 from ..errors import SceneError
 from ..features.base import Feature
+from .compliance import Respond, closing_step
 from .law import pressure
 from .policy import (
     ACTIVE_RANGE,
@@ -242,11 +242,11 @@ class ContactFeature(Feature):
         work.scatter_forward()
         return work.array.copy()
 
-    def augment(self) -> bool:
+    def augment(self, solving: bool = False) -> bool:
         """Uzawa's update of the nodal multipliers (module docstring; collective). Returns True
         if nothing is left to do: not this feature's step yet, an increment inside a step (one
-        update, no new solve), or updates that move no node by more than AUGMENT_DEPTH of its element;
-        False if Newton must solve again."""
+        update, no new solve), or updates that move no node by more than AUGMENT_DEPTH of its element
+        (taken all the same when Newton solves again anyway: ``solving``); False if Newton must solve again."""
         if not self.active:
             return True
         sel, on, _, _ = self._pressures()
@@ -263,6 +263,8 @@ class ContactFeature(Feature):
             (np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]).max(initial=0.0), op=MPI.MAX)
         if unsettled <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
             self._last_update = None
+            if solving and self.final_increment and unsettled <= 1.0:
+                self.node_multiplier, self._selection = self.node_multiplier + update, None
             return True
         self._before = (self.node_multiplier, self._growth)
         # the penetration shrinks slowly: the structure behind the surfaces (a suture pulling a
@@ -292,6 +294,10 @@ class ContactFeature(Feature):
         self.node_multiplier, self._selection = relaxed, None
         self._passes += 1
         return False
+
+    def closing_step(self, du: np.ndarray, respond: Respond) -> np.ndarray | None:
+        """compliance.py's closing step (a smoothed law has every near point in its tangent)."""
+        return closing_step(self, du, respond) if self.active and self.smoothing == 0.0 else None
 
     def _ghosted(self, values):
         """A mixed vector's owned entries, with this rank's ghost entries filled (collective)."""

@@ -22,6 +22,7 @@ are symmetric (``symmetric_tangent``), which lets Newton factorize by LDL^T.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -107,9 +108,14 @@ class ActiveSet(Protocol):
         """Collective: the last search (``begin_increment``) still holds everything the converged
         state may touch; False if it must search again, and Newton solve again."""
 
-    def augment(self) -> bool:
+    def closing_step(self, du: np.ndarray, respond: Callable) -> np.ndarray | None:
+        """Collective: the change of Newton's state change du (local entries of the bordered
+        vector) for what it changes in the set, through ``respond`` (``NewtonSolver.respond``:
+        the state change that cancels a residual change, by the factorized tangent); None: none."""
+
+    def augment(self, solving: bool) -> bool:
         """Collective: after Newton converged an increment, update what the converged state
-        decides; False if Newton must solve again."""
+        decides; False if Newton must solve again (``solving``: it will anyway)."""
 
     def abandon_augmentation(self) -> None:
         """Collective: the solve after ``augment`` failed; take back its update (the converged

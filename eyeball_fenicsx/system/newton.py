@@ -133,6 +133,8 @@ class NewtonSolver:
         self.krylov_iterations = 0  # of every solve so far
         self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve (the iterative path's: its block's)
         self.increment_scales = None  # the blocks' largest norms over the increment's solves (solve)
+        self.factorized = False  # the KSP holds a factorization of the current matrix (response)
+        self._responses = (problem.b.duplicate(), problem.b.duplicate())  # respond's residual change and state change
         snes.setMonitor(self._monitor)
 
     @contextlib.contextmanager
@@ -166,6 +168,7 @@ class NewtonSolver:
             self.snes.setJacobian(self._jacobian, self.problem.A)
             self.snes.getKSP().reset()
             self._set_from_options()
+            self.factorized = False  # until a solve factorizes the new matrix
 
     def _monitor(self, snes, its, norm):
         self.residual_norms.append(norm)
@@ -181,6 +184,7 @@ class NewtonSolver:
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
+        self.factorized = True  # by the linear solve that follows, before the step's precheck
         self.factorizations += 1
         self.tangents += 1
         if snes.getIterationNumber() == 0 and self.choose_factorization:
@@ -191,11 +195,14 @@ class NewtonSolver:
         contact gap too far (``ActiveSet.step_fraction``) or invert an element
         (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
         however short, or that swings (``_swings``), is not taken: y is zeroed and the solve ends."""
-        if self.first_step is None:  # the Newton step as solved, before any limit
-            self.first_step = self._step_length(y)
         fraction = 1.0
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
+            if self.response is not None:
+                self.problem.close_gaps(y, self.response)
+        if self.first_step is None:  # the Newton step as solved (and closing gaps), before any limit
+            self.first_step = self._step_length(y)
+        if self.problem.limits_steps:
             fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
             if fraction < 1.0:
                 y.scale(fraction)
@@ -209,6 +216,24 @@ class NewtonSolver:
             y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
             return True
         return fraction < 1.0 or halvings != 0
+
+    @property
+    def response(self):
+        """``respond`` with a direct solver, else None (an iterative solve per product would cost
+        more than the Newton iterations it saves)."""
+        return self.respond if self.linear.direct and self.factorized else None
+
+    def respond(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """The state change (local entries of the bordered vector) that cancels a change of the
+        residual (``values`` at global ``rows``; none at Dirichlet rows) through the last factorized
+        tangent: one triangular solve (collective)."""
+        change, solution = self._responses
+        change.set(0.0)
+        change.setValues(rows, values, addv=PETSc.InsertMode.ADD_VALUES)
+        change.assemble()
+        change.array[self.problem.bc_rows] = 0.0
+        self.snes.getKSP().solve(change, solution)
+        return -solution.array_r
 
     def _step_length(self, y):
         """The largest change of a free displacement component in the step y (collective)."""

@@ -31,7 +31,7 @@ rows are the misfit x - g, written over whatever was added to them.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import ufl
@@ -257,9 +257,18 @@ class Problem:
         for f in self.active_sets:
             f.set_increment(final)
 
-    def augment(self) -> bool:
-        """After Newton converged: True if no active set needs another solve (collective)."""
-        return all([f.augment() for f in self.active_sets])
+    def augment(self, solving: bool = False) -> bool:
+        """After Newton converged: True if no active set needs another solve (``solving``: Newton
+        solves again anyway; collective)."""
+        return all([f.augment(solving) for f in self.active_sets])
+
+    def close_gaps(self, y: PETSc.Vec, respond: Callable) -> None:
+        """Newton's step x -> x - y (a bordered vector) changed for the contact it makes
+        (``ActiveSet.closing_step``; the state at x; collective)."""
+        for f in self.active_sets:
+            change = f.closing_step(-y.array_r, respond)
+            if change is not None:
+                y.array[:] -= change
 
     def search_covers(self) -> bool:
         """After Newton converged: True if no active set must search again (collective)."""

@@ -184,7 +184,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
             converged, more, norm, reason = newton.solve(x, loose=loose, again=True)
             its, searches = its + more, searches + 1
             continue
-        done = problem.augment()
+        done = problem.augment(solving=loose)
         if done and not loose:
             break
         # an augmentation's solve is loose until the multipliers settle; one more, at the

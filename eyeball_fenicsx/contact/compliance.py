@@ -1,0 +1,114 @@
+"""The closing step: a Newton step that presses at once every point it closes.
+
+The tangent knows nothing of an open point, so Newton's step du0 drives every point it closes
+through the master (the onset limit, ``base.py``, then shortens it to the first contact: one
+closing point per Newton iteration). Instead, the points outside the tangent that du0 would
+press (shifted gap s = g + Gamma . du0 - lambda / alpha < 0; Gamma: the gap's gradient) take
+the penalty now. The step solves (K + sum_C W alpha Gamma Gamma^T) du = -F by the Woodbury
+identity: du = du0 + du(mu), with the pressures mu >= 0 at the closing set C from
+
+    W (mu / alpha + C mu) = -W s    (per point of C),
+
+where a pressure mu at the points changes the residual by -W mu Gamma (``_forces``), the
+tangent K already factorized for Newton turns that into the state change du(mu), and C mu =
+Gamma . du(mu) is the contact compliance (through everything the tangent holds: tissues,
+cavities' volumes, the pressing points' penalty). C is applied matrix-free, one triangular
+solve per product (``NewtonSolver.respond``), inside conjugate gradients on the closing
+points' pressures, preconditioned by the penalty's part alone. This is the semismooth Newton
+step of the penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the
+primal-dual active set), with C chosen again (points with mu <= 0 leave it, newly pressed ones
+join) at most ONSET_ROUNDS times. The onset limit still checks the corrected step.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from mpi4py import MPI
+
+from .policy import COMPLIANCE_PROBE, COMPLIANCE_RTOL, MAX_COMPLIANCE_PRODUCTS, ONSET_ROUNDS
+
+Respond = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def conjugate_gradients(apply, rhs, scaling, dot, start, rtol=COMPLIANCE_RTOL):
+    """Preconditioned CG for apply(x) = rhs (``scaling``: the diagonal preconditioner, zero off
+    the unknowns; ``dot``: the global inner product over the unknowns), from ``start``, until
+    the residual is ``rtol`` of the right side's, or MAX_COMPLIANCE_PRODUCTS products;
+    returns (x, products) (collective)."""
+    x = start.copy()
+    r = rhs - apply(x)
+    z = scaling * r
+    direction, rz, size = z.copy(), dot(r, z), np.sqrt(dot(rhs, rhs))
+    for products in range(1, MAX_COMPLIANCE_PRODUCTS + 1):
+        product = apply(direction)
+        curvature = dot(direction, product)
+        if not curvature > 0.0:  # nothing left to do, or not positive: stop where it is
+            return x, products
+        step = rz / curvature
+        x += step * direction
+        r -= step * product
+        if np.sqrt(dot(r, r)) <= rtol * size:
+            return x, products
+        z = scaling * r
+        rz_next = dot(r, z)
+        direction, rz = z + (rz_next / rz) * direction, rz_next
+    return x, MAX_COMPLIANCE_PRODUCTS
+
+
+def gap_rate(feature, du: np.ndarray) -> np.ndarray:
+    """d g / dt of every selected point's gap at the state changed by t du, at t = 0 (a
+    difference over a change of COMPLIANCE_PROBE mm at most; collective)."""
+    du = du[: feature._num_owned]
+    largest = feature.solid.comm.allreduce(float(np.abs(du).max(initial=0.0)), op=MPI.MAX)
+    if largest == 0.0:
+        return np.zeros(len(feature._selection_now().point))
+    t = COMPLIANCE_PROBE / largest
+    _, _, gaps = feature._gaps_along(du)
+    return (gaps(t) - gaps(0.0)) / t
+
+
+def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, respond: Respond) -> np.ndarray:
+    """The state change (owned entries) that pressures at the selected points ``index`` cause
+    through the factorized tangent (collective)."""
+    zero = np.zeros(len(index))
+    rows, r, _, _ = feature._forces(sel, index, pressure, zero, False)
+    return respond(rows.ravel(), r.ravel())
+
+
+def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None:
+    """The change of Newton's step du (owned entries) that presses the points it closes
+    (module docstring), or None if it closes none (collective)."""
+    comm = feature.solid.comm
+    sel, on, _, stiffness = feature._pressures()
+    shift = feature._point_multipliers()[sel.point] / feature.alpha[sel.point]
+    outside = ~(on & (stiffness > 0.0))
+    predicted = sel.g + gap_rate(feature, du) - shift
+    closing = outside & (predicted < 0.0)
+    if not comm.allreduce(bool(closing.any()), op=MPI.LOR):
+        return None
+    alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
+    mu, change = np.zeros(len(sel.point)), None
+    for _ in range(ONSET_ROUNDS):
+        index = np.flatnonzero(closing)
+
+        def apply(x):
+            out = np.zeros_like(x)
+            out[index] = weight[index] * (x[index] / alpha[index]
+                                          + gap_rate(feature, pressure_response(feature, sel, index, x[index],
+                                                                                respond))[index])
+            return out
+
+        def dot(a, b):
+            return comm.allreduce(float(np.dot(a[index], b[index])), op=MPI.SUM)
+        rhs, scaling = np.zeros_like(mu), np.zeros_like(mu)
+        rhs[index], scaling[index] = -weight[index] * predicted[index], alpha[index] / weight[index]
+        mu, _ = conjugate_gradients(apply, rhs, scaling, dot, np.where(closing, mu, 0.0))
+        change = pressure_response(feature, sel, index, mu[index], respond)
+        after = predicted + gap_rate(feature, change)
+        chosen = (closing & (mu > 0.0)) | (outside & (after < 0.0))
+        if not comm.allreduce(bool(np.any(chosen != closing)), op=MPI.LOR):
+            break
+        closing = chosen
+    return change
+
