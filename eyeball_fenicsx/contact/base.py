@@ -295,9 +295,9 @@ class ContactFeature(Feature):
         self._passes += 1
         return False
 
-    def closing_step(self, du: np.ndarray, respond: Respond) -> np.ndarray | None:
+    def closing_step(self, du: np.ndarray, residual: np.ndarray, respond: Respond) -> np.ndarray | None:
         """compliance.py's closing step (a smoothed law has every near point in its tangent)."""
-        return closing_step(self, du, respond) if self.active and self.smoothing == 0.0 else None
+        return closing_step(self, du, residual, respond) if self.active and self.smoothing == 0.0 else None
 
     def _ghosted(self, values):
         """A mixed vector's owned entries, with this rank's ghost entries filled (collective)."""
@@ -306,6 +306,12 @@ class ContactFeature(Feature):
         work.x.scatter_forward()
         return work.x.array
 
+    def onset_depth(self, point: np.ndarray, residual: np.ndarray) -> np.ndarray:
+        """How deep each of the points may close in one Newton step, d = max(f / (alpha W),
+        ONSET_DEPTH h), f the largest force of the ``residual`` on the slave nodes (collective)."""
+        force = self.solid.comm.allreduce(np.abs(residual[self.slave_dofs]).max(initial=0.0), op=MPI.MAX)
+        return np.maximum(force / (self.alpha[point] * self.weight[point]), ONSET_DEPTH * self.thickness[point])
+
     def step_fraction(self, du: np.ndarray, residual: np.ndarray) -> float:
         """The largest fraction (at most 1) of the state change ``du`` (the owned entries of the
         mixed vector) at which no closing point is deeper than its onset depth (module
@@ -313,9 +319,8 @@ class ContactFeature(Feature):
         if not self.active:
             return 1.0
         point, now, gaps = self._gaps_along(du)
-        force = self.solid.comm.allreduce(np.abs(residual[self.slave_dofs]).max(initial=0.0), op=MPI.MAX)
         shift = self._point_multipliers()[point] / self.alpha[point]
-        depth = np.maximum(force / (self.alpha[point] * self.weight[point]), ONSET_DEPTH * self.thickness[point])
+        depth = self.onset_depth(point, residual)
         now, new = now - shift + depth, gaps(1.0) - shift + depth
         closing = np.flatnonzero((now > depth + self.open_gap) & (new < 0))  # only these are searched
         shift, depth = shift[closing], depth[closing]

@@ -2,9 +2,10 @@
 
 The tangent knows nothing of an open point, so Newton's step du0 drives every point it closes
 through the master (the onset limit, ``base.py``, then shortens it to the first contact: one
-closing point per Newton iteration). Instead, the points outside the tangent that du0 would
-press (shifted gap s = g + Gamma . du0 - lambda / alpha < 0; Gamma: the gap's gradient) take
-the penalty now. The step solves (K + sum_C W alpha Gamma Gamma^T) du = -F by the Woodbury
+closing point per Newton iteration). Instead, where one would close deeper than the limit
+allows (``ContactFeature.onset_depth``), the points outside the tangent that du0 would press
+(shifted gap s = g + Gamma . du0 - lambda / alpha < 0; Gamma: the gap's gradient) take the
+penalty now. The step solves (K + sum_C W alpha Gamma Gamma^T) du = -F by the Woodbury
 identity: du = du0 + du(mu), with the pressures mu >= 0 at the closing set C from
 
     W (mu / alpha + C mu) = -W s    (per point of C),
@@ -76,16 +77,18 @@ def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, res
     return respond(rows.ravel(), r.ravel())
 
 
-def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None:
+def closing_step(feature, du: np.ndarray, residual: np.ndarray, respond: Respond) -> np.ndarray | None:
     """The change of Newton's step du (owned entries) that presses the points it closes
-    (module docstring), or None if it closes none (collective)."""
+    (module docstring), or None if none would close deeper than its onset depth (``onset_depth``,
+    at the Newton ``residual``: the onset limit would not shorten the step; collective)."""
     comm = feature.solid.comm
     sel, on, _, stiffness = feature._pressures()
     shift = feature._point_multipliers()[sel.point] / feature.alpha[sel.point]
     outside = ~(on & (stiffness > 0.0))
     predicted = sel.g + gap_rate(feature, du) - shift
     closing = outside & (predicted < 0.0)
-    if not comm.allreduce(bool(closing.any()), op=MPI.LOR):
+    deep = closing & (predicted < -feature.onset_depth(sel.point, residual))
+    if not comm.allreduce(bool(deep.any()), op=MPI.LOR):
         return None
     alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
     mu, change = np.zeros(len(sel.point)), None

@@ -199,7 +199,7 @@ class NewtonSolver:
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
             if self.response is not None:
-                self.problem.close_gaps(y, self.response)
+                self.problem.close_gaps(y, self.snes.getFunction()[0].array_r, self.response)
         if self.first_step is None:  # the Newton step as solved (and closing gaps), before any limit
             self.first_step = self._step_length(y)
         if self.problem.limits_steps:

@@ -262,11 +262,11 @@ class Problem:
         solves again anyway; collective)."""
         return all([f.augment(solving) for f in self.active_sets])
 
-    def close_gaps(self, y: PETSc.Vec, respond: Callable) -> None:
+    def close_gaps(self, y: PETSc.Vec, residual: np.ndarray, respond: Callable) -> None:
         """Newton's step x -> x - y (a bordered vector) changed for the contact it makes
-        (``ActiveSet.closing_step``; the state at x; collective)."""
+        (``ActiveSet.closing_step``; the state at x, its residual's local entries; collective)."""
         for f in self.active_sets:
-            change = f.closing_step(-y.array_r, respond)
+            change = f.closing_step(-y.array_r, residual, respond)
             if change is not None:
                 y.array[:] -= change
 
