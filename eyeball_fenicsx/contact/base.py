@@ -25,17 +25,18 @@ less than half of the penetration left (PENALTY_GROWTH_TEST: a structure behind 
 far stiffer than the penalty, such as sutures pulling a buckle in) multiplies the penalty by
 PENALTY_GROWTH for the rest of the increment, up to MAX_PENALTY_GROWTH; a pass whose solve
 fails is abandoned (the converged state before it stands, as at the cap of passes), never
-turned into a cut-back of the increment. A penalty that grows outdates the tangent (no chord
+turned into a cut-back of the increment; so is the last, settled update, taken because Newton
+solves once more at the usual tolerances anyway. A penalty that grows outdates the tangent (no chord
 step with the old one). Increments inside a step take one update each, without solving again
 (it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
-gaps would drive the surfaces through each other by the whole step. With a factorized tangent
-the step first takes the penalty of the points it would press (compliance.py's closing step).
-Then it is shortened to where the first closing point reaches the depth d = max(f / (alpha W),
-ONSET_DEPTH h) (f the largest force out of balance on the slave nodes, h the thickness of the
-point's element), found by regula falsi along the step. A step that closes nothing is not
-touched, which leaves the converged answer and Newton's quadratic convergence as they were.
+gaps would drive the surfaces through each other by the whole step. Where a point would close
+deeper than d = max(f / (alpha W), ONSET_DEPTH h) (f the largest force out of balance on the
+slave nodes, h the thickness of the point's element), the step first takes the penalty of the
+points it would press, with a factorized tangent (compliance.py's closing step); then it is
+shortened to where the first closing point reaches its d, by regula falsi along the step. A
+step that closes nothing is not touched (Newton's quadratic convergence stays as it was).
 
 A contact feature plays the roles (``features/roles.py``) of nodal assembly of the residual
 and the tangent, and of an active set: the solver watches its search, its onset limit and
@@ -224,8 +225,7 @@ class ContactFeature(Feature):
 
     def _grow_penalty(self, factor):
         """Multiply the penalty by ``factor`` (the settled change with it); Aitken starts again."""
-        self.alpha = self.alpha * factor
-        self._settled_change = self._settled_change * factor
+        self.alpha, self._settled_change = self.alpha * factor, self._settled_change * factor
         self._growth *= factor
         self._relaxation, self._last_update, self._selection = 1.0, None, None
         self._contacts["jacobian"] = None  # the last tangent had the old penalty
@@ -254,19 +254,19 @@ class ContactFeature(Feature):
         w = self.weight[point]
         area = self._nodal_sums(point, w)
         gap = self._nodal_sums(point, w * g)
-        seen = area > 0
-        owned = seen & (np.arange(len(seen)) < self._num_owned)
+        owned = (area > 0) & (np.arange(len(area)) < self._num_owned)
         update = self._uzawa_update(point, area, gap)
         # |update| / settled change: the penetration it removes, in units of the settled depth
         # (the penalty cancels), so the rule below may change the penalty between two passes
         unsettled = self.solid.comm.allreduce(
             (np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]).max(initial=0.0), op=MPI.MAX)
-        if unsettled <= 1.0 or self._passes >= MAX_AUGMENTATIONS:
+        settled = unsettled <= 1.0 or self._passes >= MAX_AUGMENTATIONS
+        self._before = (self.node_multiplier, self._growth)  # abandon_augmentation's, if the next solve fails
+        if settled:
             self._last_update = None
-            if solving and self.final_increment and unsettled <= 1.0:
+            if solving and self._passes < MAX_AUGMENTATIONS:  # a free last update
                 self.node_multiplier, self._selection = self.node_multiplier + update, None
             return True
-        self._before = (self.node_multiplier, self._growth)
         # the penetration shrinks slowly: the structure behind the surfaces (a suture pulling a
         # buckle in) is far stiffer than the penalty, so Uzawa contracts as k / (k + alpha);
         # the penalty grows, as in the augmented Lagrangian methods of Conn, Gould and Toint

@@ -18,7 +18,11 @@ solve per product (``NewtonSolver.respond``), inside conjugate gradients on the 
 points' pressures, preconditioned by the penalty's part alone. This is the semismooth Newton
 step of the penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the
 primal-dual active set), with C chosen again (points with mu <= 0 leave it, newly pressed ones
-join) at most ONSET_ROUNDS times. The onset limit still checks the corrected step.
+join) at most CLOSING_ROUNDS times. C is symmetric where the tangent is; a contact pair's
+tangent is not quite (its curvature terms), and CG then still gives the approximate solve the
+step needs (to COMPLIANCE_RTOL), which the onset limit checks afterwards, as it checks any step.
+Each contact feature takes its closing step in turn, the step already changed by the ones
+before (``Problem.close_gaps``), not in one system with them.
 """
 from __future__ import annotations
 
@@ -27,50 +31,51 @@ from collections.abc import Callable
 import numpy as np
 from mpi4py import MPI
 
-from .policy import COMPLIANCE_PROBE, COMPLIANCE_RTOL, MAX_COMPLIANCE_PRODUCTS, ONSET_ROUNDS
+from .policy import CLOSING_ROUNDS, COMPLIANCE_PROBE, COMPLIANCE_RTOL, MAX_COMPLIANCE_PRODUCTS
 
 Respond = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-def conjugate_gradients(apply, rhs, scaling, dot, start, rtol=COMPLIANCE_RTOL):
+def conjugate_gradients(apply, rhs, scaling, dot, start):
     """Preconditioned CG for apply(x) = rhs (``scaling``: the diagonal preconditioner, zero off
     the unknowns; ``dot``: the global inner product over the unknowns), from ``start``, until
-    the residual is ``rtol`` of the right side's, or MAX_COMPLIANCE_PRODUCTS products;
-    returns (x, products) (collective)."""
+    the residual is COMPLIANCE_RTOL of the right side's, or MAX_COMPLIANCE_PRODUCTS products
+    (collective)."""
     x = start.copy()
-    r = rhs - apply(x)
+    r = rhs - apply(x) if dot(x, x) > 0.0 else rhs.copy()
     z = scaling * r
     direction, rz, size = z.copy(), dot(r, z), np.sqrt(dot(rhs, rhs))
-    for products in range(1, MAX_COMPLIANCE_PRODUCTS + 1):
+    for _ in range(MAX_COMPLIANCE_PRODUCTS):
         product = apply(direction)
         curvature = dot(direction, product)
         if not curvature > 0.0:  # nothing left to do, or not positive: stop where it is
-            return x, products
+            break
         step = rz / curvature
         x += step * direction
         r -= step * product
-        if np.sqrt(dot(r, r)) <= rtol * size:
-            return x, products
+        if np.sqrt(dot(r, r)) <= COMPLIANCE_RTOL * size:
+            break
         z = scaling * r
         rz_next = dot(r, z)
         direction, rz = z + (rz_next / rz) * direction, rz_next
-    return x, MAX_COMPLIANCE_PRODUCTS
+    return x
 
 
-def gap_rate(feature, du: np.ndarray) -> np.ndarray:
-    """d g / dt of every selected point's gap at the state changed by t du, at t = 0 (a
-    difference over a change of COMPLIANCE_PROBE mm at most; collective)."""
+def gap_rate(feature, du: np.ndarray, index=slice(None)) -> np.ndarray:
+    """d g / dt of the selected points' gaps (``index``: which; default all) at the state changed
+    by t du (local entries), at t = 0 (a difference over a change of COMPLIANCE_PROBE mm at
+    most; collective)."""
     du = du[: feature._num_owned]
     largest = feature.solid.comm.allreduce(float(np.abs(du).max(initial=0.0)), op=MPI.MAX)
     if largest == 0.0:
-        return np.zeros(len(feature._selection_now().point))
+        return np.zeros(len(feature._selection_now().point))[index]
     t = COMPLIANCE_PROBE / largest
     _, _, gaps = feature._gaps_along(du)
-    return (gaps(t) - gaps(0.0)) / t
+    return (gaps(t, index) - gaps(0.0, index)) / t
 
 
 def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, respond: Respond) -> np.ndarray:
-    """The state change (owned entries) that pressures at the selected points ``index`` cause
+    """The state change (local entries) that pressures at the selected points ``index`` cause
     through the factorized tangent (collective)."""
     zero = np.zeros(len(index))
     rows, r, _, _ = feature._forces(sel, index, pressure, zero, False)
@@ -78,40 +83,36 @@ def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, res
 
 
 def closing_step(feature, du: np.ndarray, residual: np.ndarray, respond: Respond) -> np.ndarray | None:
-    """The change of Newton's step du (owned entries) that presses the points it closes
+    """The change of Newton's step du (local entries) that presses the points it closes
     (module docstring), or None if none would close deeper than its onset depth (``onset_depth``,
     at the Newton ``residual``: the onset limit would not shorten the step; collective)."""
     comm = feature.solid.comm
-    sel, on, _, stiffness = feature._pressures()
+    sel, on, _, _ = feature._pressures()
     shift = feature._point_multipliers()[sel.point] / feature.alpha[sel.point]
-    outside = ~(on & (stiffness > 0.0))
     predicted = sel.g + gap_rate(feature, du) - shift
-    closing = outside & (predicted < 0.0)
+    closing = ~on & (predicted < 0.0)
     deep = closing & (predicted < -feature.onset_depth(sel.point, residual))
     if not comm.allreduce(bool(deep.any()), op=MPI.LOR):
         return None
     alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
-    mu, change = np.zeros(len(sel.point)), None
-    for _ in range(ONSET_ROUNDS):
+    mu = np.zeros(len(sel.point))
+    for _ in range(CLOSING_ROUNDS):
         index = np.flatnonzero(closing)
 
         def apply(x):
             out = np.zeros_like(x)
-            out[index] = weight[index] * (x[index] / alpha[index]
-                                          + gap_rate(feature, pressure_response(feature, sel, index, x[index],
-                                                                                respond))[index])
+            rate = gap_rate(feature, pressure_response(feature, sel, index, x[index], respond), index)
+            out[index] = weight[index] * (x[index] / alpha[index] + rate)
             return out
 
         def dot(a, b):
             return comm.allreduce(float(np.dot(a[index], b[index])), op=MPI.SUM)
         rhs, scaling = np.zeros_like(mu), np.zeros_like(mu)
         rhs[index], scaling[index] = -weight[index] * predicted[index], alpha[index] / weight[index]
-        mu, _ = conjugate_gradients(apply, rhs, scaling, dot, np.where(closing, mu, 0.0))
+        mu = conjugate_gradients(apply, rhs, scaling, dot, np.where(closing, mu, 0.0))
         change = pressure_response(feature, sel, index, mu[index], respond)
-        after = predicted + gap_rate(feature, change)
-        chosen = (closing & (mu > 0.0)) | (outside & (after < 0.0))
+        chosen = (closing & (mu > 0.0)) | (~on & (predicted + gap_rate(feature, change) < 0.0))
         if not comm.allreduce(bool(np.any(chosen != closing)), op=MPI.LOR):
             break
         closing = chosen
     return change
-

@@ -20,12 +20,12 @@ PENALTY_GROWTH_TEST = 0.5  # an augmentation that removes less than half of the 
 PENALTY_GROWTH = 2.0  # ... multiplies the penalty by this for the next passes of the increment,
 MAX_PENALTY_GROWTH = 16.0  # up to this many times the elements' penalty
 AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
-ONSET_ROUNDS = 3  # closing step (compliance.py): the closing set chosen again at most this many times
+CLOSING_ROUNDS = 3  # closing step (compliance.py): the closing set chosen again at most this many times
 COMPLIANCE_RTOL = 1e-2  # ... its conjugate gradients stop at this relative residual
 MAX_COMPLIANCE_PRODUCTS = 60  # ... or after this many products (a triangular solve each)
 COMPLIANCE_PROBE = 1e-6  # mm: the largest displacement of the difference that gives the gaps' rates
 # Newton's options (``system/newton.py``) with contact: the onset limit already shortens the
 # Newton step, and a backtracking line search would take a fraction of that again (a shortened
 # Newton step decreases the residual less than its sufficient-decrease test asks), and crawl;
-# and each onset costs an iteration, so an increment where many nodes close needs more of them
+# and a contact onset may still cost iterations, so an increment where many nodes close needs more of them
 NEWTON_OPTIONS = {"snes_linesearch_type": "basic", "snes_max_it": 30}

@@ -56,7 +56,8 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   step") with the element's location. A secant predictor that would invert an element is
   halved alike, or dropped;
 * swings: a Newton step whose largest change of a free displacement component is more than
-  MAX_STEP_GROWTH times the solve's first step's (as solved, before any limit) and more than
+  MAX_STEP_GROWTH times the solve's first step's (as solved and given its contact closing step,
+  ``ActiveSet.closing_step``, before any limit) and more than
   MIN_STEP_WATCHED of the body's diagonal ends the solve at once ("a Newton step 3 times the first"), and the
   increment is cut back: the first step is the linear response to the increment's load, and
   the steps after it correct it; steps that grow are a soft mode taking over (the buckled eye
@@ -133,7 +134,6 @@ class NewtonSolver:
         self.krylov_iterations = 0  # of every solve so far
         self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve (the iterative path's: its block's)
         self.increment_scales = None  # the blocks' largest norms over the increment's solves (solve)
-        self.factorized = False  # the KSP holds a factorization of the current matrix (response)
         self._responses = (problem.b.duplicate(), problem.b.duplicate())  # respond's residual change and state change
         snes.setMonitor(self._monitor)
 
@@ -168,7 +168,6 @@ class NewtonSolver:
             self.snes.setJacobian(self._jacobian, self.problem.A)
             self.snes.getKSP().reset()
             self._set_from_options()
-            self.factorized = False  # until a solve factorizes the new matrix
 
     def _monitor(self, snes, its, norm):
         self.residual_norms.append(norm)
@@ -184,26 +183,26 @@ class NewtonSolver:
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
-        self.factorized = True  # by the linear solve that follows, before the step's precheck
         self.factorizations += 1
         self.tangents += 1
         if snes.getIterationNumber() == 0 and self.choose_factorization:
             self._set_factorization("cholesky" if self._symmetric(A) else "lu")
 
     def _limit_step(self, x, y):
-        """Line-search precheck: shorten the Newton step x -> x - y where it would close a
-        contact gap too far (``ActiveSet.step_fraction``) or invert an element
-        (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
-        however short, or that swings (``_swings``), is not taken: y is zeroed and the solve ends."""
-        fraction = 1.0
+        """Line-search precheck: press at once the contact points the Newton step x -> x - y
+        closes (``ActiveSet.closing_step``), then shorten it where it would still close a contact
+        gap too far (``ActiveSet.step_fraction``) or invert an element (``shorten_while_inverting``);
+        returns whether y changed. A step that inverts an element however short, or that swings
+        (``_swings``), is not taken: y is zeroed and the solve ends."""
+        fraction, closed, residual = 1.0, False, self.snes.getFunction()[0].array_r
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
-            if self.response is not None:
-                self.problem.close_gaps(y, self.snes.getFunction()[0].array_r, self.response)
-        if self.first_step is None:  # the Newton step as solved (and closing gaps), before any limit
+            if self.linear.direct:  # the KSP holds the factorization of the step's tangent
+                closed = self.problem.close_gaps(y, residual, self.respond)
+        if self.first_step is None:  # the Newton step as solved and closing gaps, before any limit
             self.first_step = self._step_length(y)
         if self.problem.limits_steps:
-            fraction = self.problem.step_fraction(-y.array_r, self.snes.getFunction()[0].array_r)
+            fraction = self.problem.step_fraction(-y.array_r, residual)
             if fraction < 1.0:
                 y.scale(fraction)
         halvings = self.shorten_while_inverting(x, y)
@@ -215,18 +214,13 @@ class NewtonSolver:
         if self.stopped:
             y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
             return True
-        return fraction < 1.0 or halvings != 0
-
-    @property
-    def response(self):
-        """``respond`` with a direct solver, else None (an iterative solve per product would cost
-        more than the Newton iterations it saves)."""
-        return self.respond if self.linear.direct and self.factorized else None
+        return closed or fraction < 1.0 or halvings != 0
 
     def respond(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
         """The state change (local entries of the bordered vector) that cancels a change of the
         residual (``values`` at global ``rows``; none at Dirichlet rows) through the last factorized
-        tangent: one triangular solve (collective)."""
+        tangent: one triangular solve (collective; a direct solver only: an iterative solve per
+        product would cost more than the Newton iterations it saves)."""
         change, solution = self._responses
         change.set(0.0)
         change.setValues(rows, values, addv=PETSc.InsertMode.ADD_VALUES)

@@ -174,7 +174,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     problem.set_increment(final)
     loose = final and bool(problem.active_sets)  # x will converge at the loose tolerances only
     converged, its, norm, reason = newton.solve(x, loose=loose)
-    settled, searches = x.duplicate(), 0
+    settled, searches, abandoned = x.duplicate(), 0, False
     while converged:
         if not problem.search_covers():  # a point moved past its search's reach: search at this state, solve again
             if searches == MAX_SEARCHES:
@@ -193,11 +193,11 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         before = norm, reason, loose
         converged, more, norm, reason = newton.solve(x, chord_start=not done, loose=not done, again=True)
         its, loose = its + more, not done
-        if not converged and not done:  # the augmentation is abandoned: the state before it stands
-            settled.copy(x)
+        if not converged and not (done and abandoned):  # the augmentation (or the free last update) is
+            settled.copy(x)                                 # abandoned: the state before it stands
             problem.abandon_augmentation()
             problem.vector_to_state(x)
-            converged, (norm, reason, loose) = True, before
+            converged, (norm, reason, loose), abandoned = True, before, True
     settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
     increment = Increment(load_factor, its, norm, wall, factorized, newton.krylov_iterations - krylov, newton.memory_mb)
