@@ -74,7 +74,7 @@ class Residuals:
         def labelled(x, chord_start=False, loose=False, again=False):
             first = len(self.solves) == self.attempt_start
             self.kind = "increment" if first else "search again" if self.searched else \
-                "augmentation" if chord_start else "at the usual tolerances"
+                "augmentation" if loose else "at the usual tolerances"
             self.searched = False
             return solve(x, chord_start=chord_start, loose=loose, again=again)
         newton.solve, newton.update_pattern = labelled, searching

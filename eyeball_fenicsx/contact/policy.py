@@ -21,7 +21,7 @@ PENALTY_GROWTH = 2.0  # ... multiplies the penalty by this for the next passes o
 MAX_PENALTY_GROWTH = 16.0  # up to this many times the elements' penalty
 AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
 CLOSING_ROUNDS = 3  # closing step (compliance.py): the closing set chosen again at most this many times
-COMPLIANCE_RTOL = 1e-2  # ... its conjugate gradients stop at this relative residual
+COMPLIANCE_RTOL = 0.1  # ... its conjugate gradients stop at this relative residual (an inexact step)
 MAX_COMPLIANCE_PRODUCTS = 60  # ... or after this many products (a triangular solve each)
 COMPLIANCE_PROBE = 1e-6  # mm: the largest displacement of the difference that gives the gaps' rates
 # Newton's options (``system/newton.py``) with contact: the onset limit already shortens the

@@ -13,8 +13,9 @@
   loose (``NewtonSolver.solve``: the residual cut by 1 / LOOSE_RTOL; the augmentations' from
   the last factorization) while the multipliers move, as
   in inexact Uzawa methods (Elman and Golub, SIAM J. Numer. Anal. 31 (1994) 1645), and the
-  last, once the features accept the state, is at the usual tolerances with a new tangent; the
-  features then check the state again.
+  last, once the features accept the state, is at the usual tolerances, from the last
+  factorization too (a new tangent once a chord step contracts less than Newton's reuse rule
+  asks, ``system/newton.py``); the features then check the state again.
 * The last increment of a step takes what is left of the step if that is less than
   ``STRETCH`` times its size (no sliver of an increment left over).
 * Increment size: after a converged increment that factorized n tangents, the next one is
@@ -166,7 +167,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
                      load_factor: float) -> tuple[bool, Increment, str]:
     """Newton on the increment ending at ``load_factor``, then again after a new search where the
     last one no longer covers the state, and while a feature augments (the augmented Lagrangian
-    of contact), from the last factorization. Returns (converged,
+    of contact), each from the last factorization. Returns (converged,
     the increment's ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
@@ -191,7 +192,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
         before = norm, reason, loose
-        converged, more, norm, reason = newton.solve(x, chord_start=not done, loose=not done, again=True)
+        converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done, again=True)
         its, loose = its + more, not done
         if not converged and not (done and abandoned):  # the augmentation (or the free last update) is
             settled.copy(x)                                 # abandoned: the state before it stands
