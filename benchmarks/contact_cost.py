@@ -10,15 +10,17 @@ the slowest rank, every cost that contact causes:
 * search: the candidate segments (bucket grid, once per increment);
 * assembly: the contact residual and tangent (every residual and Jacobian), with the
   selection and projection inside them and the zeros reserved in the matrix after a search;
-* other calls: what the solver asks of the contact feature besides (``step_fraction``, the
-  onset limiter of the line search; ``tangent_outdated``, a collective before reusing a
-  factorization; ``augment``, ``set_increment``, ``set_load_factor``, ``begin_step``);
+* other calls: what the solver asks of the contact feature besides (``closing_step``, with its
+  triangular solves; ``step_fraction``, the onset limiter of the line search;
+  ``tangent_outdated``, a collective before reusing a factorization; ``augment``,
+  ``set_increment``, ``set_load_factor``, ``begin_step``);
 * re-preallocation: a new matrix when the candidate pairs leave the pattern (the rest of
   ``NewtonSolver.update_pattern``: the keys, the coupling, ``_create_matrix``, the KSP reset);
 * new symbolic factorizations: a new pattern needs a new MUMPS analysis; without contact there
   is one per run, so all but one of the run's analyses (PETSc events ``MatCholFctrSym`` and
   ``MatLUFactorSym``, their mean time each);
-* augmentation re-solves: the Newton solves after an augmented-Lagrangian update, reported
+* augmentation re-solves: the Newton solves after an augmented-Lagrangian update (the one at
+  the usual tolerances that ends them included: they start from the last factorization), reported
   apart (they are Newton work that the contact law asks for, not overhead of computing it);
   the contact search, assembly and calls inside them are counted above, not again.
 

@@ -26,9 +26,9 @@ far stiffer than the penalty, such as sutures pulling a buckle in) multiplies th
 PENALTY_GROWTH for the rest of the increment, up to MAX_PENALTY_GROWTH; a pass whose solve
 fails is abandoned (the converged state before it stands, as at the cap of passes), never
 turned into a cut-back of the increment; so is the last, settled update, taken because Newton
-solves once more at the usual tolerances anyway. A penalty that grows outdates the tangent (no chord
-step with the old one). Increments inside a step take one update each, without solving again
-(it starts the next increment closer).
+solves once more anyway (at the usual tolerances, or for another feature's pass). A penalty
+that grows outdates the tangent (no chord step with the old one). Increments inside a step take
+one update each, without solving again (it starts the next increment closer).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
 gaps would drive the surfaces through each other by the whole step. Where a point would close
@@ -89,13 +89,12 @@ class Selection:
 class ContactFeature(Feature):
     """Base of ``ContactPair`` and ``RigidContact`` (see the module docstring).
 
-    Subclasses set, in ``setup``: ``weight``, ``alpha``, ``thickness``, ``point_X``
-    (reference coordinates), ``point_nodes`` (the local x-dofs of the slave nodes the point
-    interpolates, (n, k)) and ``point_N`` (their weights) per point, ``slave_dofs`` (the owned slave nodes'
-    local dofs, (n, 3)) and ``mean_penalty``; and give ``_positions()`` (collective: the
-    state the selection depends on), ``_select(positions)``, ``_forces(selection, index, p,
-    k, tangent)`` and ``_gaps_along(du)`` (the points, their gaps now, and their gaps at fractions
-    of du, of all the points or of some).
+    Subclasses set, in ``setup``: ``weight``, ``alpha``, ``thickness``, ``point_X`` (reference
+    coordinates), ``point_nodes`` (the local x-dofs of the slave nodes the point interpolates, (n, k))
+    and ``point_N`` (their weights) per point, ``slave_dofs`` (the owned slave nodes' local dofs,
+    (n, 3)) and ``mean_penalty``; and give ``_positions()`` (collective: the state the selection
+    depends on), ``_select(positions)``, ``_forces(selection, index, p, k, tangent)`` and
+    ``_gaps_along(du)`` (the points, their gaps now, and at fractions of du, of all points or some).
     """
 
     section = "contact"
@@ -108,15 +107,13 @@ class ContactFeature(Feature):
         self.smoothing = float(smoothing)
         self.reach = ACTIVE_RANGE * self.smoothing  # smoothed: points with (gap - lambda/alpha) below carry force
         self.open_gap = OPEN_RANGE * self.smoothing  # ... and above this they are open for step_fraction
-        self.active = False
-        self.final_increment, self._passes = True, 0
+        self.active, self.final_increment, self._passes = False, True, 0
         self._relaxation, self._last_update, self._pending = 1.0, None, None
         self._growth, self._last_unsettled = 1.0, None  # the penalty's growth in this increment (augment)
         self._before = None  # the multipliers and penalty growth before the last augmentation (abandon)
         self._selection = None  # (the positions it was made at, the Selection)
-        # wall seconds, for benchmarks; "gather" (the master nodes' displacements) and "exchange"
-        # (of the master segments near each rank's points, at a search: part of "search") include
-        # waiting for the slowest rank
+        # wall seconds, for benchmarks; "gather" (the master nodes' displacements) and "exchange" (of the
+        # master segments near each rank's points, at a search: part of "search") include the slowest rank's wait
         self.timing = {"search": 0.0, "assembly": 0.0, "gather": 0.0, "exchange": 0.0}
         self._contacts = {"residual": None, "jacobian": None}  # who touches what, at the last of each
 
@@ -206,14 +203,15 @@ class ContactFeature(Feature):
         """True: no search to outgrow by default (a rigid body's points couple only their own node)."""
         return True
 
-    def abandon_augmentation(self) -> None:
+    def abandon_augmentation(self) -> bool:
         """The solve after the last augmentation failed: back to the multipliers and penalty the
-        converged state had, and no more augmentations in this increment."""
-        if self._before is not None:
+        converged state had, and no more augmentations in this increment; whether it took any back."""
+        taken_back, self._passes = self._before is not None, MAX_AUGMENTATIONS
+        if taken_back:
             self.node_multiplier = self._before[0]
             self._grow_penalty(self._before[1] / self._growth)
             self._before, self._last_update = None, None
-        self._passes = MAX_AUGMENTATIONS
+        return taken_back
 
     def _uzawa_update(self, point, area, gap):
         """Each slave node's Uzawa change of its multiplier, from its weighted gap."""
@@ -242,7 +240,7 @@ class ContactFeature(Feature):
         work.scatter_forward()
         return work.array.copy()
 
-    def augment(self, solving: bool = False) -> bool:
+    def augment(self, solving: bool) -> bool:
         """Uzawa's update of the nodal multipliers (module docstring; collective). Returns True
         if nothing is left to do: not this feature's step yet, an increment inside a step (one
         update, no new solve), or updates that move no node by more than AUGMENT_DEPTH of its element
@@ -261,11 +259,13 @@ class ContactFeature(Feature):
         unsettled = self.solid.comm.allreduce(
             (np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]).max(initial=0.0), op=MPI.MAX)
         settled = unsettled <= 1.0 or self._passes >= MAX_AUGMENTATIONS
-        self._before = (self.node_multiplier, self._growth)  # abandon_augmentation's, if the next solve fails
+        free = settled and solving and self._passes < MAX_AUGMENTATIONS  # a free last update
+        self._before = (self.node_multiplier, self._growth) if free or not settled else None  # abandon's
         if settled:
             self._last_update = None
-            if solving and self._passes < MAX_AUGMENTATIONS:  # a free last update
+            if free:
                 self.node_multiplier, self._selection = self.node_multiplier + update, None
+                self.augmentations += 1
             return True
         # the penetration shrinks slowly: the structure behind the surfaces (a suture pulling a
         # buckle in) is far stiffer than the penalty, so Uzawa contracts as k / (k + alpha);

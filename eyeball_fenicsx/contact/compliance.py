@@ -18,7 +18,8 @@ solve per product (``NewtonSolver.respond``), inside conjugate gradients on the 
 points' pressures, preconditioned by the penalty's part alone. This is the semismooth Newton
 step of the penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the
 primal-dual active set), with C chosen again (points with mu <= 0 leave it, newly pressed ones
-join) at most CLOSING_ROUNDS times. C is symmetric where the tangent is; a contact pair's
+join; a point left with mu < 0 when the rounds run out pulls in this step only, which the next
+Newton step corrects) at most CLOSING_ROUNDS times. C is symmetric where the tangent is; a contact pair's
 tangent is not quite (its curvature terms), and CG then still gives the approximate solve the
 step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each product costs about a
 twentieth of a factorization, and the first few do most of the work), which the onset limit
@@ -65,8 +66,8 @@ def conjugate_gradients(apply, rhs, scaling, dot, start):
 
 def gap_rate(feature, du: np.ndarray, index=slice(None)) -> np.ndarray:
     """d g / dt of the selected points' gaps (``index``: which; default all) at the state changed
-    by t du (local entries), at t = 0 (a difference over a change of COMPLIANCE_PROBE mm at
-    most; collective)."""
+    by t du (local entries), at t = 0 (a difference over a change whose largest entry is
+    COMPLIANCE_PROBE at most; collective)."""
     du = du[: feature._num_owned]
     largest = feature.solid.comm.allreduce(float(np.abs(du).max(initial=0.0)), op=MPI.MAX)
     if largest == 0.0:

@@ -23,7 +23,7 @@ AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays 
 CLOSING_ROUNDS = 3  # closing step (compliance.py): the closing set chosen again at most this many times
 COMPLIANCE_RTOL = 0.1  # ... its conjugate gradients stop at this relative residual (an inexact step)
 MAX_COMPLIANCE_PRODUCTS = 60  # ... or after this many products (a triangular solve each)
-COMPLIANCE_PROBE = 1e-6  # mm: the largest displacement of the difference that gives the gaps' rates
+COMPLIANCE_PROBE = 1e-6  # the largest entry of the change whose difference gives the gaps' rates (mm, MPa)
 # Newton's options (``system/newton.py``) with contact: the onset limit already shortens the
 # Newton step, and a backtracking line search would take a fraction of that again (a shortened
 # Newton step decreases the residual less than its sufficient-decrease test asks), and crawl;

@@ -118,9 +118,10 @@ class ActiveSet(Protocol):
         """Collective: after Newton converged an increment, update what the converged state
         decides; False if Newton must solve again (``solving``: it will anyway)."""
 
-    def abandon_augmentation(self) -> None:
+    def abandon_augmentation(self) -> bool:
         """Collective: the solve after ``augment`` failed; take back its update (the converged
-        state before it stands) and augment no more in this increment."""
+        state before it stands), augment no more in this increment, and return whether there was
+        an update to take back."""
 
 
 def check_whole_role(feature: object, role: type) -> None:

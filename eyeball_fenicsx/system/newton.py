@@ -197,8 +197,9 @@ class NewtonSolver:
         fraction, closed, residual = 1.0, False, self.snes.getFunction()[0].array_r
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
-            if self.linear.direct:  # the KSP holds the factorization of the step's tangent
-                closed = self.problem.close_gaps(y, residual, self.respond)
+            ksp = self.snes.getKSP()
+            if ksp.getType() == "preonly" and ksp.getPC().getType() in ("lu", "cholesky"):  # it holds the
+                closed = self.problem.close_gaps(y, residual, self.respond)  # factorization of the step's tangent
         if self.first_step is None:  # the Newton step as solved and closing gaps, before any limit
             self.first_step = self._step_length(y)
         if self.problem.limits_steps:
@@ -219,8 +220,8 @@ class NewtonSolver:
     def respond(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
         """The state change (local entries of the bordered vector) that cancels a change of the
         residual (``values`` at global ``rows``; none at Dirichlet rows) through the last factorized
-        tangent: one triangular solve (collective; a direct solver only: an iterative solve per
-        product would cost more than the Newton iterations it saves)."""
+        tangent: one triangular solve (collective; a factorization only, as ``_limit_step`` checks:
+        an iterative solve per product would cost more than the Newton iterations it saves)."""
         change, solution = self._responses
         change.set(0.0)
         change.setValues(rows, values, addv=PETSc.InsertMode.ADD_VALUES)
@@ -345,9 +346,10 @@ class NewtonSolver:
               again: bool = False) -> tuple[bool, int, float, str]:
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
         ``chord_start``: the first step reuses the last factorization (Newton again from a
-        converged state whose loads changed a little: an augmentation). ``loose``: converged
-        once the residual is LOOSE_RTOL times its start, each block in units of its tolerance
-        (an augmentation's solve, inexact while the multipliers still move). ``again``: the same
+        converged state whose loads changed a little: an augmentation, or the solve that ends
+        them). ``loose``: converged once the residual is LOOSE_RTOL times its start, each block
+        in units of its tolerance (an augmentation's solve, inexact while the multipliers still
+        move). ``again``: the same
         increment solved again (after a new search, or an augmentation); unless loose, each
         block's scale is then the largest norm it had in any of the increment's solves, so the
         tolerances are the increment's, not those of a solve that starts near convergence."""

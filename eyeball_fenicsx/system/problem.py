@@ -257,7 +257,7 @@ class Problem:
         for f in self.active_sets:
             f.set_increment(final)
 
-    def augment(self, solving: bool = False) -> bool:
+    def augment(self, solving: bool) -> bool:
         """After Newton converged: True if no active set needs another solve (``solving``: Newton
         solves again anyway; collective)."""
         return all([f.augment(solving) for f in self.active_sets])
@@ -278,10 +278,10 @@ class Problem:
         """After Newton converged: True if no active set must search again (collective)."""
         return all([f.search_covers() for f in self.active_sets])
 
-    def abandon_augmentation(self) -> None:
-        """The solve after the last augmentation failed: the active sets take it back (collective)."""
-        for f in self.active_sets:
-            f.abandon_augmentation()
+    def abandon_augmentation(self) -> bool:
+        """The solve after the last augmentation failed: the active sets take it back; returns whether
+        any had an update to take back (collective)."""
+        return any([f.abandon_augmentation() for f in self.active_sets])
 
     # -- SNES callbacks ------------------------------------------------------------------
     def assemble_residual_unconstrained(self) -> PETSc.Vec:

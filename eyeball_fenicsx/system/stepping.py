@@ -167,7 +167,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
                      load_factor: float) -> tuple[bool, Increment, str]:
     """Newton on the increment ending at ``load_factor``, then again after a new search where the
     last one no longer covers the state, and while a feature augments (the augmented Lagrangian
-    of contact), each from the last factorization. Returns (converged,
+    of contact), these from the last factorization. Returns (converged,
     the increment's ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
@@ -194,9 +194,8 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         before = norm, reason, loose
         converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done, again=True)
         its, loose = its + more, not done
-        if not converged and not (done and abandoned):  # the augmentation (or the free last update) is
-            settled.copy(x)                                 # abandoned: the state before it stands
-            problem.abandon_augmentation()
+        if not converged and not abandoned and problem.abandon_augmentation():  # an update (a pass, or the
+            settled.copy(x)                                 # free last one) taken back: the state before it stands
             problem.vector_to_state(x)
             converged, (norm, reason, loose), abandoned = True, before, True
     settled.destroy()
