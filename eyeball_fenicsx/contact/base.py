@@ -265,7 +265,7 @@ class ContactFeature(Feature):
             self._last_update = None
             if free:
                 self.node_multiplier, self._selection = self.node_multiplier + update, None
-                self.augmentations += 1
+                self.augmentations += int(unsettled > 0.0)  # an update that moves something
             return True
         # the penetration shrinks slowly: the structure behind the surfaces (a suture pulling a
         # buckle in) is far stiffer than the penalty, so Uzawa contracts as k / (k + alpha);

@@ -167,7 +167,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
                      load_factor: float) -> tuple[bool, Increment, str]:
     """Newton on the increment ending at ``load_factor``, then again after a new search where the
     last one no longer covers the state, and while a feature augments (the augmented Lagrangian
-    of contact), these from the last factorization. Returns (converged,
+    of contact), the augmentations' from the last factorization. Returns (converged,
     the increment's ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
@@ -191,13 +191,13 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         # an augmentation's solve is loose until the multipliers settle; one more, at the
         # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
-        before = norm, reason, loose
+        before, scales = (norm, reason, loose), newton.increment_scales.copy()
         converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done, again=True)
         its, loose = its + more, not done
         if not converged and not abandoned and problem.abandon_augmentation():  # an update (a pass, or the
             settled.copy(x)                                 # free last one) taken back: the state before it stands
-            problem.vector_to_state(x)
-            converged, (norm, reason, loose), abandoned = True, before, True
+            problem.vector_to_state(x)  # and the increment's scales without the failed solve's norms
+            converged, (norm, reason, loose), abandoned, newton.increment_scales = True, before, True, scales
     settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
     increment = Increment(load_factor, its, norm, wall, factorized, newton.krylov_iterations - krylov, newton.memory_mb)
