@@ -1,0 +1,80 @@
+"""What an increment does when the Newton solve after an augmentation fails (system/stepping.py):
+the augmentation is taken back, the converged state before it stands, and one solve at the usual
+tolerances ends the increment, judged at the increment's scales as they were before the failed
+solve; a failed solve with nothing to take back fails the increment at once. A scripted problem
+and Newton solver stand in for the real ones, so each path is taken for sure."""
+import numpy as np
+from petsc4py import PETSc
+
+from eyeball_fenicsx.system import stepping
+
+SETTLED, FAILED = 1.0, 99.0  # the state a solve leaves x at, when it converges or fails
+
+
+class ScriptedProblem:
+    """An active set whose augmentations follow ``passes`` (False: another pass)."""
+
+    def __init__(self, passes, taken_back):
+        self.active_sets, self.passes, self.taken_back = [object()], list(passes), taken_back
+        self.abandoned, self.states = 0, []
+
+    def set_increment(self, final):
+        pass
+
+    def search_covers(self):
+        return True
+
+    def augment(self, solving):
+        return self.passes.pop(0)
+
+    def abandon_augmentation(self):
+        self.abandoned += 1
+        return self.taken_back
+
+    def vector_to_state(self, x):
+        self.states.append(x.getArray().copy())
+
+
+class ScriptedNewton:
+    """Solves that converge or fail as ``outcomes`` say; a failed one blows the increment's
+    scales up, as a diverging solve's norms do."""
+
+    factorizations = krylov_iterations = memory_mb = 0
+
+    def __init__(self, outcomes):
+        self.outcomes, self.increment_scales, self.scales_seen = list(outcomes), None, []
+
+    def update_pattern(self):
+        pass
+
+    def solve(self, x, chord_start=False, loose=False, again=False):
+        if not again:
+            self.increment_scales = np.array([1.0])
+        self.scales_seen.append(self.increment_scales.copy())
+        converged = self.outcomes.pop(0)
+        if not converged:
+            self.increment_scales = np.array([1e4])
+        x.set(SETTLED if converged else FAILED)
+        return converged, 2, 1e-12 if converged else 1e3, "scripted"
+
+
+def _increment(passes, outcomes, taken_back=True):
+    problem, newton = ScriptedProblem(passes, taken_back), ScriptedNewton(outcomes)
+    x = PETSc.Vec().createSeq(3, comm=PETSc.COMM_SELF)
+    converged, _, _ = stepping._solve_increment(problem, newton, x, 1.0)
+    return converged, problem, newton, x.getArray().copy()
+
+
+def test_a_failed_pass_is_taken_back_and_the_last_solve_judged_at_the_scales_before_it():
+    # the increment's solve converges; a pass (False) whose solve fails; settled (True): the solve
+    # at the usual tolerances converges; settled again: done
+    converged, problem, newton, x = _increment([False, True, True], [True, False, True])
+    assert converged and problem.abandoned == 1
+    assert np.all(x == SETTLED) and np.all(problem.states[0] == SETTLED)  # the state before the pass
+    assert [s[0] for s in newton.scales_seen] == [1.0, 1.0, 1.0]  # not the failed solve's 1e4
+
+
+def test_a_failed_solve_with_nothing_to_take_back_fails_the_increment_at_once():
+    # settled with no update (True), the solve at the usual tolerances fails: no second try
+    converged, problem, newton, _ = _increment([True], [True, False], taken_back=False)
+    assert not converged and problem.abandoned == 1 and newton.outcomes == []
