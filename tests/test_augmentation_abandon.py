@@ -1,8 +1,9 @@
 """What an increment does when the Newton solve after an augmentation fails (system/stepping.py):
 the augmentation is taken back, the converged state before it stands, and one solve at the usual
 tolerances ends the increment, judged at the increment's scales as they were before the failed
-solve; a failed solve with nothing to take back fails the increment at once. A scripted problem
-and Newton solver stand in for the real ones, so each path is taken for sure."""
+solve (``NewtonSolver.solve`` keeps a failed solve's norms out of them:
+tests/test_solver_globalization.py); a failed solve with nothing to take back fails the increment at
+once. A scripted problem and Newton solver stand in for the real ones, so each path is taken for sure."""
 import numpy as np
 from petsc4py import PETSc
 
@@ -36,8 +37,8 @@ class ScriptedProblem:
 
 
 class ScriptedNewton:
-    """Solves that converge or fail as ``outcomes`` say; a failed one blows the increment's
-    scales up, as a diverging solve's norms do."""
+    """Solves that converge or fail as ``outcomes`` say; a converged one folds its norms into the
+    increment's scales, a failed one (its norms blown up) does not, as ``NewtonSolver.solve``."""
 
     factorizations = krylov_iterations = memory_mb = 0
 
@@ -52,8 +53,8 @@ class ScriptedNewton:
             self.increment_scales = np.array([1.0])
         self.scales_seen.append(self.increment_scales.copy())
         converged = self.outcomes.pop(0)
-        if not converged:
-            self.increment_scales = np.array([1e4])
+        if converged:
+            self.increment_scales = np.maximum(self.increment_scales, 1.0)
         x.set(SETTLED if converged else FAILED)
         return converged, 2, 1e-12 if converged else 1e3, "scripted"
 

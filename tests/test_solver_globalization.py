@@ -125,6 +125,9 @@ def test_newton_steps_that_grow_end_the_solve(sphere_mesh):
         scene.run()
     iterations = len(scene.newton.residual_norms) - 1
     assert iterations < STAGNATION_WINDOW + 1  # stagnation needs the window's iterates after the first
+    # the failed solve's growing norms stay out of the increment's scales: a solve of the same
+    # increment again (after an abandoned augmentation) is judged at the converged solves' ones
+    assert not np.any(scene.newton.increment_scales)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -39,8 +39,9 @@ Globalization, so that a hard increment ends quickly, either converged or cut ba
   that starts at zero (the pressure rows of a displacement-driven increment) is judged
   against the imbalance Newton's first step gave it. A solve of the same increment again (after
   a new contact search, or the one that ends its augmentations) takes the largest norm over all
-  the increment's solves: it starts near convergence, and its own largest norm would ask for
-  round-off. Every block must have converged;
+  the increment's converged solves: it starts near convergence, and its own largest norm would
+  ask for round-off (a failed one's, an abandoned augmentation's, would loosen it). Every block
+  must have converged;
 * stagnation: a Newton solve whose residual, each block divided by its tolerance, has not
   reached a new minimum in ``STAGNATION_WINDOW`` iterations (a cycle, or steps that no longer
   help) stops at once as "stagnated", and the increment is cut back. Minima are counted among
@@ -133,7 +134,7 @@ class NewtonSolver:
         self.factorizations = 0  # new tangents (a factorization, or a new preconditioner)
         self.krylov_iterations = 0  # of every solve so far
         self.memory_mb = 0  # MUMPS' INFOG(21) after the last solve (the iterative path's: its block's)
-        self.increment_scales = None  # the blocks' largest norms over the increment's solves (solve)
+        self.increment_scales = None  # the blocks' largest norms over the increment's converged solves (solve)
         self._responses = (problem.b.duplicate(), problem.b.duplicate())  # respond's residual change and state change
         snes.setMonitor(self._monitor)
 
@@ -292,7 +293,6 @@ class NewtonSolver:
         blocks = self._block_norms(snes.getFunction()[0].array_r)
         self.block_norms.append(blocks)
         self.block_scales = np.maximum(self.block_scales, blocks)
-        self.increment_scales = np.maximum(self.increment_scales, blocks)
         tolerances = np.maximum(rtol * self.block_scales, atol)
         contracting = its and fnorm <= self.reuse_contraction * self.residual_norms[-2]
         polish = POLISH if self.reused and contracting else 1.0
@@ -351,7 +351,7 @@ class NewtonSolver:
         in units of its tolerance (an augmentation's solve, inexact while the multipliers still
         move). ``again``: the same
         increment solved again (after a new search, or an augmentation); unless loose, each
-        block's scale is then the largest norm it had in any of the increment's solves, so the
+        block's scale is then the largest norm it had in any of the increment's converged solves, so the
         tolerances are the increment's, not those of a solve that starts near convergence."""
         self.chord_start, self.loose_rtol = chord_start, LOOSE_RTOL if loose else 0.0
         self.residual_norms = []
@@ -375,4 +375,6 @@ class NewtonSolver:
             self.stopped = self.linear.krylov_failure(ksp)
         norm = self.residual_norms[-1] if self.residual_norms else float("nan")
         converged = reason > 0 and np.isfinite(norm)
+        if converged:  # a failed solve's norms (an abandoned augmentation's) loosen no later solve
+            self.increment_scales = np.maximum(self.increment_scales, self.block_scales)
         return converged, self.snes.getIterationNumber(), norm, self.stopped or _REASONS.get(reason, str(reason))

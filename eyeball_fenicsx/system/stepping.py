@@ -191,13 +191,13 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         # an augmentation's solve is loose until the multipliers settle; one more, at the
         # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
-        before, scales = (norm, reason, loose), newton.increment_scales.copy()
+        before = norm, reason, loose
         converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done, again=True)
         its, loose = its + more, not done
         if not converged and not abandoned and problem.abandon_augmentation():  # an update (a pass, or the
             settled.copy(x)                                 # free last one) taken back: the state before it stands
-            problem.vector_to_state(x)  # and the increment's scales without the failed solve's norms
-            converged, (norm, reason, loose), abandoned, newton.increment_scales = True, before, True, scales
+            problem.vector_to_state(x)
+            converged, (norm, reason, loose), abandoned = True, before, True
     settled.destroy()
     wall, factorized = time.perf_counter() - start, newton.factorizations - factorized
     increment = Increment(load_factor, its, norm, wall, factorized, newton.krylov_iterations - krylov, newton.memory_mb)
