@@ -35,6 +35,12 @@ from .materials import MooneyRivlin, Prestretched
 # A rank that finds another process compiling the same form waits for it; DOLFINx 0.5 gives
 # up after 10 s, too short for the eye's forms on a machine with few cores.
 jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"] = (600, jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"][1])
+# The kernels' C: DOLFINx's -O2, and the libm calls (sqrt, pow, log) need not set errno, so the
+# compiler inlines them (sqrt as one instruction, pow of a constant as products) and vectorizes
+# the loops around them; the values change by round-off (1e-14) only (benchmarks/README.md).
+JIT_COMPILE_ARGS = ["-O2", "-g0", "-fno-math-errno"]
+jit.DOLFINX_DEFAULT_JIT_PARAMETERS["cffi_extra_compile_args"] = (
+    JIT_COMPILE_ARGS, jit.DOLFINX_DEFAULT_JIT_PARAMETERS["cffi_extra_compile_args"][1])
 
 # name -> (displacement degree, pressure family, pressure degree). Q2P1 is the quadratic
 # hexahedron with a discontinuous linear pressure (DPC1), the optimal inf-sup stable pair.
