@@ -40,28 +40,34 @@ Respond = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
 def conjugate_gradients(apply, rhs, scaling, dot, start):
-    """Preconditioned CG for apply(x) = rhs (``scaling``: the diagonal preconditioner, zero off
-    the unknowns; ``dot``: the global inner product over the unknowns), from ``start``, until
-    the residual is COMPLIANCE_RTOL of the right side's, or MAX_COMPLIANCE_PRODUCTS products
-    (collective)."""
+    """Preconditioned CG for A x = rhs, ``apply(x)`` giving (A x, y(x)) for a y linear in x (the
+    state change the pressures cause), from ``start``, until the residual is COMPLIANCE_RTOL of
+    the right side's, or MAX_COMPLIANCE_PRODUCTS products (``scaling``: the diagonal preconditioner,
+    zero off the unknowns; ``dot``: the global inner product over the unknowns). Returns x and
+    y(x), summed along the way (no product more; collective)."""
     x = start.copy()
-    r = rhs - apply(x) if dot(x, x) > 0.0 else rhs.copy()
+    if dot(x, x) > 0.0:
+        product, response = apply(x)
+        r = rhs - product
+    else:
+        r, response = rhs.copy(), None
     z = scaling * r
     direction, rz, size = z.copy(), dot(r, z), np.sqrt(dot(rhs, rhs))
     for _ in range(MAX_COMPLIANCE_PRODUCTS):
-        product = apply(direction)
+        product, change = apply(direction)
         curvature = dot(direction, product)
         if not curvature > 0.0:  # nothing left to do, or not positive: stop where it is
             break
         step = rz / curvature
         x += step * direction
+        response = step * change if response is None else response + step * change
         r -= step * product
         if np.sqrt(dot(r, r)) <= COMPLIANCE_RTOL * size:
             break
         z = scaling * r
         rz_next = dot(r, z)
         direction, rz = z + (rz_next / rz) * direction, rz_next
-    return x
+    return x, response
 
 
 def gap_rate(feature, du: np.ndarray, index=slice(None)) -> np.ndarray:
@@ -103,17 +109,17 @@ def closing_step(feature, du: np.ndarray, residual: np.ndarray, respond: Respond
         index = np.flatnonzero(closing)
 
         def apply(x):
-            out = np.zeros_like(x)
-            rate = gap_rate(feature, pressure_response(feature, sel, index, x[index], respond), index)
-            out[index] = weight[index] * (x[index] / alpha[index] + rate)
-            return out
+            out, change = np.zeros_like(x), pressure_response(feature, sel, index, x[index], respond)
+            out[index] = weight[index] * (x[index] / alpha[index] + gap_rate(feature, change, index))
+            return out, change
 
         def dot(a, b):
             return comm.allreduce(float(np.dot(a[index], b[index])), op=MPI.SUM)
         rhs, scaling = np.zeros_like(mu), np.zeros_like(mu)
         rhs[index], scaling[index] = -weight[index] * predicted[index], alpha[index] / weight[index]
-        mu = conjugate_gradients(apply, rhs, scaling, dot, np.where(closing, mu, 0.0))
-        change = pressure_response(feature, sel, index, mu[index], respond)
+        mu, change = conjugate_gradients(apply, rhs, scaling, dot, np.where(closing, mu, 0.0))
+        if change is None:  # no step taken: no pressure
+            change = np.zeros_like(du)
         chosen = (closing & (mu > 0.0)) | (~on & (predicted + gap_rate(feature, change) < 0.0))
         if not comm.allreduce(bool(np.any(chosen != closing)), op=MPI.LOR):
             break
