@@ -44,7 +44,7 @@ def conjugate_gradients(apply, rhs, scaling, dot, start):
     state change the pressures cause), from ``start``, until the residual is COMPLIANCE_RTOL of
     the right side's, or MAX_COMPLIANCE_PRODUCTS products (``scaling``: the diagonal preconditioner,
     zero off the unknowns; ``dot``: the global inner product over the unknowns). Returns x and
-    y(x), summed along the way (no product more; collective)."""
+    y(x), summed along the way (no product more; None if x is the zero start, untouched; collective)."""
     x = start.copy()
     if dot(x, x) > 0.0:
         product, response = apply(x)
