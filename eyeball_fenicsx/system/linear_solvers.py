@@ -17,9 +17,9 @@ tolerances decide it, ``newton.py``).
   preconditioner of ``al_preconditioner.py``: the displacement block penalized element by element
   by alpha times the element's shear modulus, factorized by MUMPS' LDL^T, and diagonal pressure
   and cavity blocks. Newton keeps a tangent and its preconditioner for chord steps as it keeps a
-  factorization, so both paths take the same Newton steps and increments, but where a step closes
-  contact gaps (the closing step needs a factorization, ``newton.py``), so their answers agree to
-  the augmentations' tolerance there. The Krylov tolerance
+  factorization, so both paths take the same Newton steps and increments, except where a step
+  closes contact gaps (the closing step needs a factorization, ``newton.py``): their answers then
+  agree to the augmentations' tolerance. The Krylov tolerance
   is ``ITERATIVE_RTOL`` of the residual, so each Newton step contracts the residual by that factor
   at least, and the last one lands far below Newton's tolerance, as a direct solve's does. A
   Krylov solve that does not reach it ends the Newton solve with a message that says so
