@@ -2,7 +2,7 @@
 
 Penalty: a contact pressure per unit penetration (MPa/mm) of PENALTY_FACTOR times the
 stiffness E/h of the two surface layers of elements in series (``surface.py``). The
-augmented Lagrangian (``base.py``) removes its penetration, so the factor only sets how
+augmented Lagrangian (``augmented.py``) removes its penetration, so the factor only sets how
 many augmentations a step needs (a softer penalty: more) against how hard contact onset is
 for Newton (a stiffer one: a point that closes in one step meets a pressure far above the
 loads). The factor is the one of 1, 3, 10 and 30 with which the encircling operation takes
