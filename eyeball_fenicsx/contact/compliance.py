@@ -19,13 +19,13 @@ points' pressures, preconditioned by the penalty's part alone. This is the semis
 step of the penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the
 primal-dual active set), with C chosen again (points with mu <= 0 leave it, newly pressed ones
 join; a point left with mu < 0 when the rounds run out pulls in this step only, which the next
-Newton step corrects) at most CLOSING_ROUNDS times. C is symmetric where the tangent is; a contact pair's
-tangent is not quite (its curvature terms), and CG then still gives the approximate solve the
-step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each product costs about a
-twentieth of a factorization, and the first few do most of the work), which the onset limit
-checks afterwards, as it checks any step.
-Each contact feature takes its closing step in turn, the step already changed by the ones
-before (``Problem.close_gaps``), not in one system with them.
+Newton step corrects) at most CLOSING_ROUNDS times. C is symmetric where the tangent is; a
+contact pair's tangent is not quite (its curvature terms), and CG then still gives the
+approximate solve the step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each
+product costs about a twentieth of a factorization, and the first few do most of the work),
+which the onset limit checks afterwards, as it checks any step. Each contact feature takes its
+closing step in turn, the step already changed by the ones before (``Problem.close_gaps``), not
+in one system with them.
 """
 from __future__ import annotations
 
