@@ -48,11 +48,10 @@ class AugmentedLagrangian:
     """The nodal multipliers of a contact feature, Uzawa's updates of them, their checkpoint."""
 
     def _start_multipliers(self):
-        """The state before any step (``__init__``)."""
-        self.final_increment, self._passes = True, 0
-        self._relaxation, self._last_update, self._pending = 1.0, None, None
-        self._growth, self._last_unsettled = 1.0, None  # the penalty's growth in this increment (augment)
-        self._before = None  # the multipliers and penalty growth before the last augmentation (abandon)
+        """The state before any step (``__init__``): no pending update, the elements' penalty, and
+        an increment's start (``set_increment``)."""
+        self._pending, self._growth = None, 1.0  # the penalty's growth in this increment (augment)
+        self.set_increment(True)
 
     def _setup_multipliers(self):
         """Zero multipliers, and the change that counts as settled at each slave node (``setup``)."""
@@ -69,7 +68,8 @@ class AugmentedLagrangian:
         """Whether the coming increment ends its step (the augmentations then go to the end);
         the last increment's update of the multipliers is taken now."""
         self.final_increment, self._passes = final, 0
-        self._relaxation, self._last_update, self._last_unsettled, self._before = 1.0, None, None, None
+        self._relaxation, self._last_update, self._last_unsettled = 1.0, None, None
+        self._before = None  # the multipliers and penalty growth before the last augmentation (abandon)
         if self._growth != 1.0:  # each increment starts from the penalty of the elements
             self._grow_penalty(1.0 / self._growth)
         if self._pending is not None:
