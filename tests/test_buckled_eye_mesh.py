@@ -285,11 +285,15 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
         def distances():
             return (cKDTree(sclera).query(bite)[0], cKDTree(outer).query(knot)[0],
                     cKDTree(sides[suture["side"]]).query(knot)[0], cKDTree(inner).query(hold)[0])
-        to_sclera, to_outer, to_side, to_inner = on_rank0(distances)
-        assert to_sclera < 0.45  # within half an element of a node of "sclera_outer"
-        assert to_outer < 1e-9 and to_side < 1e-9  # a node of the top edge on the suture's side
-        # the loop holds the node of the base under it (seen from the sclera's centre)
-        assert to_inner < 1e-9 and hold / np.linalg.norm(hold) == pytest.approx(knot / np.linalg.norm(knot))
+        # among the surfaces' nodes (the Suture ties the nearest point of each surface's elements):
+        # within an element, whose side is at most the sclera's azimuthal spacing 2 pi R / n_circ
+        assert max(on_rank0(distances)) < 2 * math.pi * radius / N_CIRC
+        # the knot on the body's top edge on the suture's side, the loop's hold on its base under it
+        sutured = layout.bodies[body]
+        edge = sutured.theta[1 if suture["side"] == "front" else 0]
+        assert np.linalg.norm(knot) == pytest.approx(sutured.outer_radius, rel=1e-12)
+        assert _polar(knot[None])[0][0] == pytest.approx(edge, abs=1e-12)
+        assert hold == pytest.approx(sutured.inner_radius * knot / np.linalg.norm(knot), abs=1e-12)
         # The bite is suture_width / 2 from the centre line along the meridian, outside the buckle.
         theta, phi = _polar(bite[None])
         arc = radius * (theta[0] - layout.centre_theta)
@@ -297,8 +301,8 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
         assert (arc > 0) == (suture["side"] == "front")
         assert _polar(knot[None])[1][0] == pytest.approx(phi[0], abs=1e-12)
     wider = buckled_eye.suture_points(parameters, count=2, suture_width=8.0)
-    # Two azimuths (90 and 270 degrees for the ring; 7.5 and 52.5, moved to the nodes at 0 and 45, on the
-    # segmental tire), of which the half eye holds one.
+    # Two azimuths (90 and 270 degrees for the ring; 7.5 and 52.5 on the segmental tire), of which the
+    # half eye holds one.
     assert len(wider) == (2 if model == "tired" else 4)
     assert all(abs(abs(radius * (_polar(np.array([s["sclera"]]))[0][0] - layout.centre_theta)) - 4.0) < 1e-9
                for s in wider)
@@ -358,13 +362,14 @@ def test_cli(tmp_path):
 
 
 def test_suture_on_a_cut_plane_is_kept_at_half_share():
-    """On the coarse half eye the tire's sutures at +-7.5 degrees both move to the node on the cut
-    plane: that suture is kept, half of it in the wedge; without it a single suture azimuth would
-    leave the tire free to slide along the sclera before contact holds it (a singular tangent)."""
+    """In a half eye, a suture on a cut plane (azimuth 0) is kept, half of it in the wedge (its mirror
+    image holds the other half), and one in the mirror image (-22.5 degrees) is left out; the suture at
+    7.5 degrees, between the coarse eye's nodes (11.25 degrees apart), stays where it was put."""
     tire = {"width": 4.0, "height": 1.0, "arc_deg": 60.0, "azimuth_deg": 0.0}
-    sutures = buckled_eye.suture_points({"n_circ": 16, "sector_deg": 180.0, "tire": tire}, count=4)
+    sutures = buckled_eye.suture_points({"n_circ": 16, "sector_deg": 180.0, "tire": tire},
+                                        azimuth_deg=[-22.5, 0.0, 7.5])
     shares = sorted((s["azimuth_deg"], s["side"], s["share"]) for s in sutures)
-    assert shares == [(0.0, "back", 0.5), (0.0, "front", 0.5), (22.5, "back", 1.0), (22.5, "front", 1.0)]
+    assert shares == [(0.0, "back", 0.5), (0.0, "front", 0.5), (7.5, "back", 1.0), (7.5, "front", 1.0)]
 
 
 def test_radial_sponge_and_its_sutures():
@@ -403,10 +408,10 @@ def test_radial_sponge_and_its_sutures():
 
 
 def test_sutures_spread_symmetrically_over_a_tire():
-    """Four suture azimuths over a 60-degree tire at 45 degrees on the default eye (nodes 9 degrees
-    apart): 22.5 and 67.5 lie halfway between two nodes; each goes to the one nearer the middle, so
-    the sutures are symmetric about 45 degrees (27, 36, 54, 63)."""
+    """Four suture azimuths over a 60-degree tire at 45 degrees on the default eye lie where they are
+    spread, 7.5 and 22.5 degrees either side of its middle, though the eye's nodes are 9 degrees apart
+    (22.5 and 67.5 fall halfway between two of them): the sutures are symmetric about 45 degrees."""
     tire = {"width": 4.0, "height": 1.0, "arc_deg": 60.0, "azimuth_deg": 45.0}
     sutures = buckled_eye.suture_points({"n_circ": 40, "sector_deg": 360.0, "tire": tire}, count=4)
     azimuths = sorted({s["azimuth_deg"] for s in sutures})
-    assert azimuths == pytest.approx([27.0, 36.0, 54.0, 63.0], abs=1e-9)
+    assert azimuths == pytest.approx([22.5, 37.5, 52.5, 67.5], abs=1e-9)

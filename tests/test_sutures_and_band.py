@@ -59,17 +59,40 @@ def test_shortened_sutures_balance_the_block(block_mesh):
     assert norms[-1] < 1e-9 * norms[0] and len(norms) <= 6
 
 
-def test_suture_between_two_nodes_is_in_balance(block_mesh):
-    """A suture tying two nodes of a block, neither on a support, pulls them together with
-    equal and opposite forces: the supports carry nothing."""
-    suture = Suture("tie", [1.0, 1.0, 1.0], [1.0, 0.25, 1.0], tension=0.02)
+@pytest.mark.parametrize("surfaces", [(None, None), ("x1", "z1")], ids=["nodes", "between nodes"])
+def test_suture_between_two_nodes_is_in_balance(block_mesh, surfaces):
+    """A suture tying two points of a block, neither on a support, pulls them together with
+    equal and opposite forces: the supports carry nothing. Tied between nodes (the points on
+    the surfaces x1 and z1, MaterialPoint), each end's force is shared by the nodes of its
+    element in the proportions that interpolate its position, so the string's forces stay in
+    balance, moments included."""
+    ends = ([1.0, 1.0, 1.0], [1.0, 0.25, 1.0]) if surfaces[0] is None else ([1.0, 0.8, 0.55], [0.7, 0.3, 1.0])
+    suture = Suture("tie", *ends, tension=0.02, first_surface=surfaces[0], second_surface=surfaces[1])
     scene = ef.Scene("tie", block_mesh((2, 4, 2)), {"solid": ef.NeoHooke(0.5)}, features=SYMMETRY + [suture],
                      probes={"a": [1.0, 1.0, 1.0], "b": [1.0, 0.25, 1.0]})
     final = scene.run()["steps"][-1]
     for support in ("x0", "y0", "z0"):
         assert np.allclose(final["reactions"][support], 0.0, atol=1e-12)
-    assert final["probes"]["a"][1] < 0  # the corner moved toward the other end
-    assert final["sutures"]["tie"]["length"] < 1.0
+    assert final["sutures"]["tie"]["length"] < suture.initial_length  # the ends moved toward each other
+    if surfaces[0] is None:
+        assert final["probes"]["a"][1] < 0  # the corner moved toward the other end
+
+
+def test_suture_ends_between_nodes_move_with_their_elements(block_mesh):
+    """Four strings of tension T pull the corners of the face x = 1 along +x, a uniaxial stretch
+    lambda (analytic.uniaxial_nominal_stress); a fifth string of no tension ties two points of the
+    faces x1 and y1 that lie between the nodes of the 2 x 1 x 1 block. Its ends move with the
+    homogeneous deformation F = diag(lambda, lambda^-1/2, lambda^-1/2) that the trilinear elements
+    interpolate exactly, so its length is |F (b - a)| (the nearest nodes are 0.5 and 0.25 away)."""
+    T, a, b = 0.05, np.array([1.0, 0.3, 0.6]), np.array([0.35, 1.0, 0.2])
+    sutures = [Suture(f"s{i}", corner, [1e6, corner[1], corner[2]], tension=T, anchored=True)
+               for i, corner in enumerate(CORNERS)]
+    probe = Suture("probe", a, b, tension=0.0, first_surface="x1", second_surface="y1")
+    _, final = pulled_block(block_mesh, sutures + [probe])
+    stretch = brentq(lambda lam: uniaxial_nominal_stress(lam, C) - 4 * T, 1.0, 3.0)
+    F = np.diag([stretch, stretch**-0.5, stretch**-0.5])
+    assert probe.initial_length == pytest.approx(np.linalg.norm(b - a), rel=1e-12)
+    assert final["sutures"]["probe"]["length"] == pytest.approx(np.linalg.norm(F @ (b - a)), rel=1e-8)
 
 
 def test_free_band_shrinks_by_the_reduction():

@@ -1,14 +1,19 @@
 """Sutures: strings that tie two material points and pull them together.
 
-As in the seed, a suture applies equal and opposite nodal forces along the *current*
-string direction e = (x_b - x_a) / l at its two end nodes. It derives from a potential:
+As in the seed, a suture applies equal and opposite forces along the *current* string
+direction e = (x_b - x_a) / l at its two ends. An end is a material point of a surface where
+the suture is tied (``mechanics.solid.MaterialPoint``), not the node nearest to it: its motion is
+interpolated from the nodes of its element, x = sum_i N_i x_i, and its force shared among them
+as N_i f, so the suture is where it was put on any mesh (an end given without a surface is the
+nearest node). It derives from a potential:
 
-* tension-driven: Pi = T l, the force T e on node a (toward b), -T e on node b;
+* tension-driven: Pi = T l, the force T e on end a (toward b), -T e on end b;
 * shortening-driven: a stiff string whose rest length is shortened by s,
   Pi = k/2 <l - (l_0 - s)>^2 (slack strings carry nothing), T = k <l - l_0 + s>.
 
-Its consistent tangent on the two nodes is +-[dT/dl e e^T + T/l (I - e e^T)]. The second
-end may instead be a fixed point in space (``anchored=True``): the surgeon's hand.
+Its consistent tangent on the two ends is +-[dT/dl e e^T + T/l (I - e e^T)], N_i N_j times that
+between their nodes i and j. The second end may instead be a fixed point in space
+(``anchored=True``): the surgeon's hand.
 
 A suture tied around a buckle holds it both ways (``bilateral=True``, the seed's constrained
 suture points): it also resists shortening, T = k (l - l_rest) of either sign, so the
@@ -25,8 +30,8 @@ reference direction, N the sclera's normal at the bite, both fixed) is held by a
 ``SLIDE_STIFFNESS`` times the string's stiffness, Pi_s = k_s / 2 (s . (u_h - u_a))^2, which
 picks the state that has not slid and carries almost nothing (a thousandth of the string's
 stiffness: a slide of 0.1 mm costs 1e-4 of k, against the string's tensions of k times a
-tenth of a mm). It ties the bite a to the buckle's node h that rests on the sclera (``hold``:
-the node of the buckle's inner surface under the string's end b; b itself if not given). The
+tenth of a mm). It ties the bite a to the buckle's point h that rests on the sclera (``hold``:
+the point of the buckle's inner surface under the string's end b; b itself if not given). The
 hold's two forces, +-k_s (s . (u_h - u_a)) s, are not along the line from a to h, so they make
 a couple (x_h - x_a) x f, which nothing in the eye balances but the support: tied to the top
 of a buckle of height H, that line has a part H along the radius and the couple of the slides
@@ -50,7 +55,7 @@ from petsc4py import PETSc
 
 from .. import checks
 from ..errors import SceneError
-from ..mechanics.solid import MaterialNode, MixedSolid
+from ..mechanics.solid import MaterialNode, MaterialPoint, MixedSolid
 from .base import Feature
 
 SUTURE_EA = 40.0  # N, 5-0 polyester (see the module docstring)
@@ -64,7 +69,9 @@ class Suture(Feature):
         tension: prescribed string tension (ramped in the suture's step), or
         shortening: prescribed shortening of the string's rest length (ramped).
         stiffness: k of the string for shortening (default: SUTURE_EA / initial length).
-        first_surface, second_surface: surfaces to pick the nodes from.
+        first_surface, second_surface: the surfaces the ends are on: an end is then the point of
+            that surface nearest to ``first`` (``second``), its motion interpolated from the nodes
+            of the element there (``MaterialPoint``); without a surface, the nearest mesh node.
         anchored: the second end is a fixed point in space, not a node.
         bilateral: the string also pushes (a loop tied around a buckle), see the module docstring.
         hold, hold_surface: a bilateral suture's node of the buckle held against sliding along the
@@ -97,8 +104,8 @@ class Suture(Feature):
         self.factor = 0.0
 
     def setup(self, solid: MixedSolid) -> None:
-        self.a = MaterialNode(solid, self.first_point, self.surfaces[0])
-        self.b = None if self.anchored else MaterialNode(solid, self.second_point, self.surfaces[1])
+        self.a = _end(solid, self.first_point, self.surfaces[0])
+        self.b = None if self.anchored else _end(solid, self.second_point, self.surfaces[1])
         self.comm = solid.comm
         self._check_ends(solid)
         self.initial_length = np.linalg.norm(self._ends()[1] - self._ends()[0])
@@ -111,7 +118,7 @@ class Suture(Feature):
         self.h = self.b
         if self.bilateral and not self.anchored:
             if self.hold_point is not None:
-                self.h = MaterialNode(solid, *self.hold_point)
+                self.h = _end(solid, *self.hold_point)
             xa, xb = self.a.reference, self.b.reference
             across = np.cross(xb - xa, xa)  # the sclera's normal at the bite: the radius (its centre is the origin)
             if np.linalg.norm(across) > 1e-12 * np.linalg.norm(xa) * self.initial_length:
@@ -120,8 +127,8 @@ class Suture(Feature):
             self.slide_stiffness = SLIDE_STIFFNESS * stiffness
 
     def _check_ends(self, solid):
-        """An end ties the mesh node nearest to its point: a point farther from every node than the
-        largest element is a mistake (a wrong sign, unit or surface), not a node to snap to."""
+        """An end ties the point of its surface (or the mesh node) nearest to its point: a point
+        farther from it than the largest element is a mistake (a wrong sign, unit or surface)."""
         msh = solid.mesh_data.mesh
         cells = np.arange(msh.topology.index_map(msh.topology.dim).size_local, dtype=np.int32)
         local = float(cpp.mesh.h(msh._mesh, msh.topology.dim, cells).max()) if len(cells) else 0.0
@@ -131,9 +138,9 @@ class Suture(Feature):
             ends.append(("second", self.b, self.second_point, self.surfaces[1]))
         for key, node, point, surface in ends:
             if node.distance > largest:
-                where = f"surface {surface!r}" if surface else "the mesh"
-                raise SceneError(f"suture {self.name!r}: {key} = {point.tolist()} is {node.distance:.4g} from the "
-                                 f"nearest node of {where}, farther than the largest element ({largest:.4g}); "
+                where = f"surface {surface!r}" if surface else "the nearest node of the mesh"
+                raise SceneError(f"suture {self.name!r}: {key} = {point.tolist()} is {node.distance:.4g} from "
+                                 f"{where}, farther than the largest element ({largest:.4g}); "
                                  "give a point on it")
 
     def _ends(self):
@@ -165,7 +172,7 @@ class Suture(Feature):
         return string, (self.share * self.slide_stiffness * np.outer(s, s) if s.any() else None)
 
     def _hold(self):
-        """The loop's hold on the first end, toward the buckle's node h (module docstring)."""
+        """The loop's hold on the first end, toward the buckle's point h (module docstring)."""
         if not self.across.any():
             return np.zeros(3)
         return self.share * self.slide_stiffness * self.slide * self.across
@@ -175,22 +182,23 @@ class Suture(Feature):
             return
         f = self.force * self.direction  # the string's pull on the first end, toward the second
         hold = self._hold()
-        b.setValues(self.a.dofs, -(f + hold), addv=PETSc.InsertMode.ADD_VALUES)
+        b.setValues(self.a.dofs, np.kron(self.a.weights, -(f + hold)), addv=PETSc.InsertMode.ADD_VALUES)
         if self.b is not None:
-            b.setValues(self.b.dofs, f, addv=PETSc.InsertMode.ADD_VALUES)
-            b.setValues(self.h.dofs, hold, addv=PETSc.InsertMode.ADD_VALUES)
+            b.setValues(self.b.dofs, np.kron(self.b.weights, f), addv=PETSc.InsertMode.ADD_VALUES)
+            b.setValues(self.h.dofs, np.kron(self.h.weights, hold), addv=PETSc.InsertMode.ADD_VALUES)
 
     def add_to_jacobian(self, A: PETSc.Mat) -> None:
         if self.comm.rank != self.a.owner:
             return
-        for node, K in zip((self.b, self.h), self._blocks()):
+        a = self.a
+        for other, K in zip((self.b, self.h), self._blocks()):
             if K is None:
                 continue
-            A.setValues(self.a.dofs, self.a.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
-            if node is not None:
-                A.setValues(node.dofs, node.dofs, K, addv=PETSc.InsertMode.ADD_VALUES)
-                A.setValues(self.a.dofs, node.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
-                A.setValues(node.dofs, self.a.dofs, -K, addv=PETSc.InsertMode.ADD_VALUES)
+            ends = [(a, a, 1.0)] if other is None else [(a, a, 1.0), (other, other, 1.0), (a, other, -1.0),
+                                                        (other, a, -1.0)]
+            for row, column, sign in ends:  # an end's nodes take their weights' share
+                A.setValues(row.dofs, column.dofs, np.kron(np.outer(row.weights, column.weights), sign * K),
+                            addv=PETSc.InsertMode.ADD_VALUES)
 
     def coupling(self) -> tuple[np.ndarray, np.ndarray] | None:
         if self.comm.rank != self.a.owner:
@@ -202,7 +210,12 @@ class Suture(Feature):
     def report(self) -> dict:
         """The thread's tension, current and initial length, and the force the suture puts on the
         body of its second end in the model: the string's, -share T e, and the loop's hold (at the
-        node h); the first end takes the opposite."""
+        point h); the first end takes the opposite."""
         return {"tension": float(self.force / self.share), "share": self.share, "length": float(self.length),
                 "initial_length": float(self.initial_length),
                 "force_on_second": (-self.force * self.direction - self._hold()).tolist()}
+
+
+def _end(solid: MixedSolid, point, surface: str | None):
+    """A suture's end: the point of ``surface`` nearest to ``point``, or the nearest mesh node."""
+    return MaterialNode(solid, point) if surface is None else MaterialPoint(solid, point, surface)

@@ -220,11 +220,82 @@ class MaterialNode:
             data = (W.dofmap.index_map.local_to_global(local), x[node])
         self.dofs, self.reference = solid.comm.bcast(data, root=self.owner)
         self.dofs = np.asarray(self.dofs, dtype=PETSc.IntType)
+        self.weights = np.ones(1)  # one node: its displacement is the point's (as MaterialPoint's)
 
     def position(self) -> np.ndarray:
         """Current position (collective)."""
         u = self.solid.w.x.array[self.local] if self.local is not None else None
         return self.reference + self.solid.comm.bcast(u, root=self.owner)
+
+
+class MaterialPoint:
+    """The point of a surface's elements nearest to a reference point, wherever the nodes are:
+    its displacement is interpolated by the shape functions of the element that holds it,
+    u = sum_i N_i(xi) u_i, so a string tied there pulls its nodes with N_i times its force.
+    The element is the surface element whose reference image of the point, xi pulled back and
+    clipped to the reference cell, lies nearest to it (a point on a smooth surface lies a sagitta
+    off the faceted one). Known on every rank: its nodes' global displacement dofs (node-major,
+    3 a node), their weights N_i (k,), its reference position and ``distance`` from the point."""
+
+    CANDIDATES = 8  # elements pulled back, the nearest by their nodes' centroid
+
+    def __init__(self, solid: MixedSolid, point, surface: str):
+        self.solid, point = solid, np.asarray(point, dtype=float)
+        msh = solid.mesh_data.mesh
+        msh.topology.create_connectivity(msh.topology.dim - 1, msh.topology.dim)
+        f2c = msh.topology.connectivity(msh.topology.dim - 1, msh.topology.dim)
+        facets = solid.mesh_data.facets(surface)
+        cells = np.unique(np.concatenate([f2c.links(f) for f in facets] + [np.empty(0, np.int32)]))
+        cells = cells[cells < msh.topology.index_map(msh.topology.dim).size_local]
+        V0, to_W = solid.component(0)
+        nodes = V0.dofmap.list.array.reshape(-1, V0.dofmap.dof_layout.num_dofs)[cells]
+        X = V0.tabulate_dof_coordinates()[nodes]  # (cells, k, 3)
+        best, found = (np.inf, solid.comm.rank), None
+        for c in np.argsort(np.linalg.norm(X.mean(axis=1) - point, axis=1))[:self.CANDIDATES]:
+            geometry = msh.geometry.x[msh.geometry.dofmap.links(cells[c])]
+            try:
+                xi = msh.geometry.cmap.pull_back(point[None], geometry)
+            except RuntimeError:  # the map's Newton fails for a point far outside a distorted element
+                continue
+            xi = _clip_to_reference(msh.topology.cell_type.name, xi)
+            N = _element(V0).tabulate(0, xi)[0, 0, :, 0]
+            distance = float(np.linalg.norm(N @ X[c] - point))
+            if distance < best[0]:
+                best, found = (distance, solid.comm.rank), (c, N)
+        self.distance, self.owner = solid.comm.allreduce(best, op=MPI.MIN)
+        if not np.isfinite(self.distance):
+            raise SceneError(f"no element on surface {surface!r} near {point.tolist()}")
+        self.local, data = None, None
+        if solid.comm.rank == self.owner:
+            c, N = found
+            keep = np.abs(N) > 1e-14  # the nodes off the point's face carry nothing
+            self.local = np.array([np.asarray(solid.component(i)[1])[nodes[c][keep]] for i in range(3)], np.int32).T
+            self._weights = N[keep]
+            data = (solid.W.dofmap.index_map.local_to_global(self.local.ravel()), N[keep], N @ X[c])
+        dofs, self.weights, self.reference = solid.comm.bcast(data, root=self.owner)
+        self.dofs = np.asarray(dofs, dtype=PETSc.IntType)
+
+    def position(self) -> np.ndarray:
+        """Current position (collective)."""
+        u = self._weights @ self.solid.w.x.array[self.local] if self.local is not None else None
+        return self.reference + self.solid.comm.bcast(u, root=self.owner)
+
+
+def _element(V: fem.FunctionSpace):
+    """The basix element of a scalar Lagrange space (for its shape functions at reference points)."""
+    element = V.ufl_element()
+    return basix.create_element(basix.ElementFamily.P, getattr(basix.CellType, element.cell().cellname()),
+                                element.degree(), basix.LagrangeVariant.gll_warped)
+
+
+def _clip_to_reference(cell: str, xi: np.ndarray) -> np.ndarray:
+    """Reference coordinates moved into the reference cell: the unit cube clipped, a simplex's
+    negative coordinates zeroed and the rest scaled onto its slanted face."""
+    xi = np.maximum(xi, 0.0)
+    if cell in ("hexahedron", "quadrilateral"):
+        return np.minimum(xi, 1.0)
+    total = xi.sum(axis=1, keepdims=True)
+    return np.where(total > 1.0, xi / np.maximum(total, 1e-300), xi)
 
 
 class JacobianGuard:

@@ -30,7 +30,9 @@ Extensions beyond the contract (documented in README.md):
   ``symmetry`` (axes): the model's symmetry planes, where the master's normals lie in the plane;
   ``adjust`` (mm): a clearance in the mesh closed at the start (contact/pair.py);
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
-  ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``);
+  ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``): an end given
+  with its surface is the point of that surface nearest to it (interpolated in the element
+  there), one without the nearest mesh node;
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
 * ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
   ``posterior_surface``): the eye measures written under "eye" in summary.json

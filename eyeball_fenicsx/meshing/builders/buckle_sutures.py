@@ -4,8 +4,8 @@ The seed's suture treatment ties the top edges of the buckle to points of the sc
 Here each suture is a string from a *sclera bite point* on the sclera's outer surface, at arc
 length ``suture_width`` / 2 in front of or behind the buckle's centre line (the seed's "suture
 width", wider than the buckle, so that the tightened strings press the buckle into the eye), to a
-*buckle point*, a node of the top edge on the same side (front or back) of the sutured body: the
-tire if there is one, else the band (the loop holds the node of the body's base under it against
+*buckle point*, a point of the top edge on the same side (front or back) of the sutured body: the
+tire if there is one, else the band (the loop holds the point of the body's base under it against
 sliding along the sclera: features/sutures.py says why the base). At each azimuth there are two
 sutures, "front" and "back", as the two arms of a mattress suture. By default the bites are
 ``SUTURE_MARGIN`` = 1 mm beyond each edge of the widest body: mattress sutures are placed 1 mm
@@ -16,11 +16,11 @@ beyond each edge of the element, "so that the indent occurs when the buckle is t
 A radial sponge (laid along the meridian) is tied across instead: at each of ``count`` polar
 angles along its length, two sutures ("side_0" and "side_1", at its smaller and larger azimuth)
 from bites on the sclera ``suture_width`` / 2 to either side of its middle azimuth (measured along
-the sclera's circle of latitude) to the nodes of its top edges there.
+the sclera's circle of latitude) to the points of its top edges there.
 
-Each suture position is moved to the nearest node of the sutured body; a position halfway between
-two nodes goes to the one nearer the body's middle, so that sutures spread symmetrically over a
-body stay symmetric (round-off does not choose).
+Each end is the point itself, wherever the mesh's nodes are: the Suture feature ties the point
+of its surface nearest to it, its motion interpolated from the element there
+(``mechanics.solid.MaterialPoint``), so a suture is where the surgeon puts it on every mesh.
 
 In a wedge model a suture on a cut plane is kept with ``share`` 1/2 (its mirror image holds the
 other half): dropping it can leave the buckle with a single suture azimuth, whose two strings meet
@@ -58,10 +58,8 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
             side); it must exceed the widest body's footprint.
         azimuth_deg: explicit azimuths (degrees) instead of ``count`` (not for a radial sponge).
 
-    Each azimuth is moved to the nearest node azimuth of the sutured body, a tie to the one nearer
-    the body's middle (azimuths that meet there give one suture pair), so that the buckle point is
-    a node of its top edge; the sclera bite point is on the sclera's smooth outer surface (the
-    sphere of radius R_o; the Suture feature takes the nearest node of "sclera_outer").
+    The points lie on the smooth surfaces (the sclera's sphere of radius R_o, the body's edges);
+    the Suture feature ties the nearest point of each surface's elements (the module docstring).
 
     Returns:
         A list of dicts, two per azimuth ("back" then "front"): {"name": "suture_<azimuth>_<side>",
@@ -90,7 +88,7 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
             bite, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
             sclera = Ro * np.array([*(math.sin(bite) * direction), -math.cos(bite)])
             edge_direction = np.array([*(math.sin(edge) * direction), -math.cos(edge)])
-            degrees = math.degrees(phi)
+            degrees = round(math.degrees(phi), 9)
             sutures.append({"name": f"suture_{degrees:g}_{side}", "azimuth_deg": degrees, "side": side,
                             "share": share, "sclera": tuple(sclera.tolist()), **_edge(body, edge_direction)})
     return sutures
@@ -108,10 +106,8 @@ def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width):
         raise SceneError(f"buckled_eye: suture_width {suture_width} must exceed the sponge's width {width:.3f} mm "
                          "on the sclera")
     middle = math.radians(body.azimuth_deg)
-    polar = np.linspace(body.theta[0], body.theta[1], body.n_width + 1)
-    wanted = body.theta[0] + (body.theta[1] - body.theta[0]) * (np.arange(count) + 0.5) / count
     sutures = []
-    for theta in sorted({_nearest(polar, t, 0.5 * sum(body.theta)) for t in wanted}):
+    for theta in body.theta[0] + (body.theta[1] - body.theta[0]) * (np.arange(count) + 0.5) / count:
         half = suture_width / 2 / (Ro * math.sin(theta))
         for side, sign, edge in zip(("side_0", "side_1"), (-1, 1), (body.azimuths[0], body.azimuths[-1])):
             bite = middle + sign * half
@@ -135,16 +131,6 @@ def _edge(body: BuckleBody, direction: np.ndarray) -> dict:
             "hold_surface": f"{body.name}_inner"}
 
 
-def _nearest(nodes: np.ndarray, value: float, middle: float, period: float | None = None) -> float:
-    """The node nearest ``value``; of two as near (to 1e-9), the one nearer ``middle`` (angles modulo
-    ``period`` if given)."""
-    def distance(a, b):
-        d = np.asarray(a) - b
-        return np.abs(d if period is None else np.angle(np.exp(2j * np.pi * d / period)) * period / (2 * np.pi))
-    key = np.round(distance(nodes, value), 9)
-    return float(nodes[np.lexsort((distance(nodes, middle), key))[0]])
-
-
 def _half_width(layout: BuckleLayout, suture_width):
     """Half the distance between the bites of a suture, as an angle (rad), checked; by default the
     bites are ``SUTURE_MARGIN`` beyond the edges of the widest body."""
@@ -163,24 +149,22 @@ def _half_width(layout: BuckleLayout, suture_width):
 
 
 def _azimuths(layout: BuckleLayout, body: BuckleBody, count, azimuth_deg):
-    """The suture azimuths in the model (rad), each moved to the nearest node azimuth of the sutured
-    body, those that meet there merged."""
+    """The suture azimuths in the model (rad), each inside the sutured body's arc; in a wedge, those
+    of its mirror image left out."""
     if azimuth_deg is None:
         check("buckled_eye", "count", count, "positive integer")
         fractions = (np.arange(count) + 0.5) / count
         # Over the whole eye: a ring, or the whole arc of a segmental tire (mirrored in a wedge).
         azimuth_deg = body.azimuth_deg + body.arc_deg * (fractions - 0.5) if body.arc_deg < 360.0 \
             else 360.0 * fractions
-    snapped = []
-    sector, step = math.radians(layout.eye["sector_deg"]), 2 * np.pi / layout.eye["n_circ"]
-    wedge = sector < 2 * np.pi
+    azimuths, sector = [], math.radians(layout.eye["sector_deg"])
     for phi in np.radians(np.asarray(azimuth_deg, dtype=float)) % (2 * np.pi):
-        if wedge and not phi <= sector + 1e-9:
+        phi = 0.0 if phi > 2 * np.pi - 1e-9 else float(phi)
+        if sector < 2 * np.pi and not phi <= sector + 1e-9:
             continue  # in the mirror image of the wedge
-        distance = np.abs(np.angle(np.exp(1j * (body.azimuths - phi))))
-        if distance.min() > step:
+        off_middle = abs(np.angle(np.exp(1j * (phi - math.radians(body.azimuth_deg)))))
+        if body.arc_deg < 360.0 and off_middle > math.radians(body.arc_deg) / 2 + 1e-9:
             raise SceneError(f"buckled_eye: no suture at azimuth {math.degrees(phi):.1f} deg, outside the tire")
-        phi = _nearest(body.azimuths, phi, math.radians(body.azimuth_deg), 2 * np.pi) % (2 * np.pi)
-        if all(abs(phi - other) > 1e-9 for other in snapped):
-            snapped.append(phi)
-    return snapped
+        if all(abs(phi - other) > 1e-9 for other in azimuths):
+            azimuths.append(phi)
+    return azimuths
