@@ -60,7 +60,7 @@ def test_shortened_sutures_balance_the_block(block_mesh):
 
 
 @pytest.mark.parametrize("surfaces", [(None, None), ("x1", "z1")], ids=["nodes", "between nodes"])
-def test_suture_between_two_nodes_is_in_balance(block_mesh, surfaces):
+def test_suture_between_two_points_is_in_balance(block_mesh, surfaces):
     """A suture tying two points of a block, neither on a support, pulls them together with
     equal and opposite forces: the supports carry nothing. Tied between nodes (the points on
     the surfaces x1 and z1, MaterialPoint), each end's force is shared by the nodes of its

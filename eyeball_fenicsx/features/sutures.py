@@ -1,11 +1,11 @@
 """Sutures: strings that tie two material points and pull them together.
 
 As in the seed, a suture applies equal and opposite forces along the *current* string
-direction e = (x_b - x_a) / l at its two ends. An end is a material point of a surface where
-the suture is tied (``mechanics.solid.MaterialPoint``), not the node nearest to it: its motion is
-interpolated from the nodes of its element, x = sum_i N_i x_i, and its force shared among them
-as N_i f, so the suture is where it was put on any mesh (an end given without a surface is the
-nearest node). It derives from a potential:
+direction e = (x_b - x_a) / l at its two ends. An end given with its surface is the nearest
+point of that surface's elements to where the suture is tied (``mechanics.solid.MaterialPoint``):
+its motion is interpolated from the nodes of its element, x = sum_i N_i x_i, and its force shared
+among them as N_i f, so the suture is where it was put on any mesh; an end given without a surface
+is the nearest node. It derives from a potential:
 
 * tension-driven: Pi = T l, the force T e on end a (toward b), -T e on end b;
 * shortening-driven: a stiff string whose rest length is shortened by s,
@@ -69,12 +69,13 @@ class Suture(Feature):
         tension: prescribed string tension (ramped in the suture's step), or
         shortening: prescribed shortening of the string's rest length (ramped).
         stiffness: k of the string for shortening (default: SUTURE_EA / initial length).
-        first_surface, second_surface: the surfaces the ends are on: an end is then the point of
-            that surface nearest to ``first`` (``second``), its motion interpolated from the nodes
-            of the element there (``MaterialPoint``); without a surface, the nearest mesh node.
+        first_surface, second_surface: the surfaces the ends are on: an end is then the nearest
+            point of that surface's elements to ``first`` (``second``), its motion interpolated
+            from the nodes of the element there (``MaterialPoint``); without a surface, the
+            nearest mesh node.
         anchored: the second end is a fixed point in space, not a node.
         bilateral: the string also pushes (a loop tied around a buckle), see the module docstring.
-        hold, hold_surface: a bilateral suture's node of the buckle held against sliding along the
+        hold, hold_surface: a bilateral suture's point of the buckle held against sliding along the
             sclera (its base under ``second``, see the module docstring); default: the second end.
         share: the part of the suture in the model: 1/2 for a suture on a symmetry plane, whose
             mirror image holds the other half (its tension, stiffness and forces are halved).
@@ -111,7 +112,7 @@ class Suture(Feature):
         self.initial_length = np.linalg.norm(self._ends()[1] - self._ends()[0])
         if self.initial_length == 0:
             raise SceneError(f"suture {self.name!r}: its two ends, first = {self.first_point.tolist()} and second = "
-                             f"{self.second_point.tolist()}, are the same mesh node; move them apart")
+                             f"{self.second_point.tolist()}, are the same point; move them apart")
         if self.shortening is not None and self.stiffness is None:
             self.stiffness = SUTURE_EA / self.initial_length
         self.across = np.zeros(3)  # s, the direction of the loop's slide spring (bilateral only)
@@ -217,5 +218,5 @@ class Suture(Feature):
 
 
 def _end(solid: MixedSolid, point, surface: str | None):
-    """A suture's end: the point of ``surface`` nearest to ``point``, or the nearest mesh node."""
+    """A suture's end: the nearest point of ``surface``'s elements to ``point``, or the nearest mesh node."""
     return MaterialNode(solid, point) if surface is None else MaterialPoint(solid, point, surface)

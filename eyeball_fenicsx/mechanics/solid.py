@@ -229,7 +229,7 @@ class MaterialNode:
 
 
 class MaterialPoint:
-    """The point of a surface's elements nearest to a reference point, wherever the nodes are:
+    """The nearest point of a surface's elements to a reference point, wherever the nodes are:
     its displacement is interpolated by the shape functions of the element that holds it,
     u = sum_i N_i(xi) u_i, so a string tied there pulls its nodes with N_i times its force.
     The element is the surface element whose reference image of the point, xi pulled back and
@@ -250,7 +250,7 @@ class MaterialPoint:
         V0, to_W = solid.component(0)
         nodes = V0.dofmap.list.array.reshape(-1, V0.dofmap.dof_layout.num_dofs)[cells]
         X = V0.tabulate_dof_coordinates()[nodes]  # (cells, k, 3)
-        best, found = (np.inf, solid.comm.rank), None
+        best, found, element = (np.inf, solid.comm.rank), None, _element(V0)
         for c in np.argsort(np.linalg.norm(X.mean(axis=1) - point, axis=1))[:self.CANDIDATES]:
             geometry = msh.geometry.x[msh.geometry.dofmap.links(cells[c])]
             try:
@@ -258,7 +258,7 @@ class MaterialPoint:
             except RuntimeError:  # the map's Newton fails for a point far outside a distorted element
                 continue
             xi = _clip_to_reference(msh.topology.cell_type.name, xi)
-            N = _element(V0).tabulate(0, xi)[0, 0, :, 0]
+            N = element.tabulate(0, xi)[0, 0, :, 0]
             distance = float(np.linalg.norm(N @ X[c] - point))
             if distance < best[0]:
                 best, found = (distance, solid.comm.rank), (c, N)
@@ -270,14 +270,13 @@ class MaterialPoint:
             c, N = found
             keep = np.abs(N) > 1e-14  # the nodes off the point's face carry nothing
             self.local = np.array([np.asarray(solid.component(i)[1])[nodes[c][keep]] for i in range(3)], np.int32).T
-            self._weights = N[keep]
             data = (solid.W.dofmap.index_map.local_to_global(self.local.ravel()), N[keep], N @ X[c])
         dofs, self.weights, self.reference = solid.comm.bcast(data, root=self.owner)
         self.dofs = np.asarray(dofs, dtype=PETSc.IntType)
 
     def position(self) -> np.ndarray:
         """Current position (collective)."""
-        u = self._weights @ self.solid.w.x.array[self.local] if self.local is not None else None
+        u = self.weights @ self.solid.w.x.array[self.local] if self.local is not None else None
         return self.reference + self.solid.comm.bcast(u, root=self.owner)
 
 

@@ -31,7 +31,7 @@ Extensions beyond the contract (documented in README.md):
   ``adjust`` (mm): a clearance in the mesh closed at the start (contact/pair.py);
 * ``[[suture]]`` (``name``, ``first``, ``second``, ``tension`` or ``shortening``,
   ``stiffness``, ``first_surface``, ``second_surface``, ``anchored``, ``step``): an end given
-  with its surface is the point of that surface nearest to it (interpolated in the element
+  with its surface is the nearest point of that surface's elements (interpolated in the element
   there), one without the nearest mesh node;
 * ``[[band]]`` (``region``, ``reduction``, ``center``, ``axis``, ``step``): band tightening;
 * ``[eye]`` (``vitreous``, ``anterior``, ``posterior``, ``anterior_surface``,
