@@ -190,44 +190,6 @@ class MixedSolid:
         return self._dg0
 
 
-class MaterialNode:
-    """The mesh node nearest to a reference point (on a surface, if given): its global
-    displacement dofs and its current position, known on every rank."""
-
-    def __init__(self, solid: MixedSolid, point, surface: str | None = None):
-        self.solid = solid
-        W = solid.W
-        owned = solid.num_owned
-        V0, to_W = solid.component(0)
-        x = V0.tabulate_dof_coordinates()
-        candidates = np.arange(V0.dofmap.index_map.size_local)
-        if surface is not None:
-            on_surface = solid.surface_dofs(surface)[0]
-            candidates = np.flatnonzero(np.isin(np.asarray(to_W)[candidates], on_surface))
-        distance = np.linalg.norm(x[candidates] - np.asarray(point, dtype=float), axis=1)
-        best = (distance.min(), solid.comm.rank) if len(candidates) else (np.inf, solid.comm.rank)
-        self.distance, self.owner = solid.comm.allreduce(best, op=MPI.MIN)
-        if not np.isfinite(self.distance):
-            raise SceneError(f"no mesh node on surface {surface!r} near {list(point)}")
-        local = None
-        if solid.comm.rank == self.owner:
-            node = candidates[int(distance.argmin())]
-            local = np.array([solid.component(i)[1][node] for i in range(3)], dtype=np.int32)
-            assert (local < owned).all()
-        self.local = local
-        data = None
-        if local is not None:
-            data = (W.dofmap.index_map.local_to_global(local), x[node])
-        self.dofs, self.reference = solid.comm.bcast(data, root=self.owner)
-        self.dofs = np.asarray(self.dofs, dtype=PETSc.IntType)
-        self.weights = np.ones(1)  # one node: its displacement is the point's (as MaterialPoint's)
-
-    def position(self) -> np.ndarray:
-        """Current position (collective)."""
-        u = self.solid.w.x.array[self.local] if self.local is not None else None
-        return self.reference + self.solid.comm.bcast(u, root=self.owner)
-
-
 class MaterialPoint:
     """The nearest point of a surface's elements to a reference point, wherever the nodes are:
     its displacement is interpolated by the shape functions of the element that holds it,
@@ -275,9 +237,43 @@ class MaterialPoint:
         self.dofs = np.asarray(dofs, dtype=PETSc.IntType)
 
     def position(self) -> np.ndarray:
-        """Current position (collective)."""
-        u = self.weights @ self.solid.w.x.array[self.local] if self.local is not None else None
+        """Current position (collective): the weighted positions of its nodes, on the owner."""
+        u = self.weights @ self.solid.w.x.array[self.local].reshape(-1, 3) if self.local is not None else None
         return self.reference + self.solid.comm.bcast(u, root=self.owner)
+
+
+class MaterialNode(MaterialPoint):
+    """The mesh node nearest to a reference point (on a surface, if given): a material point whose
+    one node carries it whole (weight 1); its global displacement dofs and its current position,
+    known on every rank."""
+
+    def __init__(self, solid: MixedSolid, point, surface: str | None = None):
+        self.solid = solid
+        W = solid.W
+        owned = solid.num_owned
+        V0, to_W = solid.component(0)
+        x = V0.tabulate_dof_coordinates()
+        candidates = np.arange(V0.dofmap.index_map.size_local)
+        if surface is not None:
+            on_surface = solid.surface_dofs(surface)[0]
+            candidates = np.flatnonzero(np.isin(np.asarray(to_W)[candidates], on_surface))
+        distance = np.linalg.norm(x[candidates] - np.asarray(point, dtype=float), axis=1)
+        best = (distance.min(), solid.comm.rank) if len(candidates) else (np.inf, solid.comm.rank)
+        self.distance, self.owner = solid.comm.allreduce(best, op=MPI.MIN)
+        if not np.isfinite(self.distance):
+            raise SceneError(f"no mesh node on surface {surface!r} near {list(point)}")
+        local = None
+        if solid.comm.rank == self.owner:
+            node = candidates[int(distance.argmin())]
+            local = np.array([solid.component(i)[1][node] for i in range(3)], dtype=np.int32)
+            assert (local < owned).all()
+        self.local = local
+        data = None
+        if local is not None:
+            data = (W.dofmap.index_map.local_to_global(local), x[node])
+        self.dofs, self.reference = solid.comm.bcast(data, root=self.owner)
+        self.dofs = np.asarray(self.dofs, dtype=PETSc.IntType)
+        self.weights = np.ones(1)
 
 
 def _element(V: fem.FunctionSpace):
