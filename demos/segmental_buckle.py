@@ -59,8 +59,9 @@ indentation = final["eye"]["buckle_height_mm"] - before["eye"]["buckle_height_mm
 # +
 def pushed_in(suture):
     """s / (e . r) for the string from its bite (first point) to the tire (second point)."""
-    e = (suture.second_point - suture.first_point) / np.linalg.norm(suture.second_point - suture.first_point)
-    r = suture.second_point / np.linalg.norm(suture.second_point)  # the sclera's centre is the origin
+    first, second = suture.a.reference, suture.b.reference  # the ends: the means of their bites' points
+    e = (second - first) / np.linalg.norm(second - first)
+    r = second / np.linalg.norm(second)  # the sclera's centre is the origin
     return suture.shortening / abs(e @ r)
 
 

@@ -97,8 +97,9 @@ opposite_ratio_max = max(opposite_ratio.values())
 # +
 def pushed_in(suture):
     """s / (e . r) for the string from its bite (first point) to the buckle (second point)."""
-    e = (suture.second_point - suture.first_point) / np.linalg.norm(suture.second_point - suture.first_point)
-    r = suture.second_point / np.linalg.norm(suture.second_point)  # the sclera's centre is the origin
+    first, second = suture.a.reference, suture.b.reference  # the ends: the means of their bites' points
+    e = (second - first) / np.linalg.norm(second - first)
+    r = second / np.linalg.norm(second)  # the sclera's centre is the origin
     return suture.shortening / abs(e @ r)
 
 

@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 
 from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
+from eyeball_fenicsx.meshing.builders.buckle_sutures import BITE_LENGTH, BITE_SPACING
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 
@@ -300,6 +301,21 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
         assert abs(arc) == pytest.approx(widest / 2 + buckled_eye.SUTURE_MARGIN, abs=1e-9)
         assert (arc > 0) == (suture["side"] == "front")
         assert _polar(knot[None])[1][0] == pytest.approx(phi[0], abs=1e-12)
+        # The bite: points on the bite's circle of latitude, evenly spaced at most BITE_SPACING apart over
+        # at most BITE_LENGTH (less where the sutures' azimuths are closer: the tire's, 15 degrees apart
+        # on 12.16 mm, 3.18 mm), centred on the suture's azimuth; the knot's end over the same azimuths of
+        # the body's top edge.
+        spread, over = np.array(suture["sclera_bite"]), np.array(suture["buckle_bite"])
+        assert np.linalg.norm(spread, axis=1) == pytest.approx(radius, abs=1e-9)
+        assert _polar(spread)[0] == pytest.approx(theta[0], abs=1e-12)
+        assert _polar(over)[0] == pytest.approx(edge, abs=1e-12)
+        azimuths = _polar(spread)[1]
+        assert _polar(over)[1] == pytest.approx(azimuths, abs=1e-12)
+        step = np.diff(azimuths)
+        assert step == pytest.approx(step[0], rel=1e-9) and step[0] * radius * math.sin(theta[0]) <= BITE_SPACING
+        length = (azimuths[-1] - azimuths[0] + step[0]) * radius * math.sin(layout.centre_theta)
+        assert length == pytest.approx(BITE_LENGTH, rel=1e-9)
+        assert azimuths.mean() == pytest.approx(phi[0], abs=1e-12)
     wider = buckled_eye.suture_points(parameters, count=2, suture_width=8.0)
     # Two azimuths (90 and 270 degrees for the ring; 7.5 and 52.5 on the segmental tire), of which the
     # half eye holds one.

@@ -59,14 +59,21 @@ def test_shortened_sutures_balance_the_block(block_mesh):
     assert norms[-1] < 1e-9 * norms[0] and len(norms) <= 6
 
 
-@pytest.mark.parametrize("surfaces", [(None, None), ("x1", "z1")], ids=["nodes", "between nodes"])
-def test_suture_between_two_points_is_in_balance(block_mesh, surfaces):
+# a bite on each face, across element boundaries: the end is the mean of its points
+BITES = (np.stack([np.ones(9), np.linspace(0.1, 0.9, 9), np.linspace(0.2, 0.7, 9)], axis=1),
+         np.stack([np.linspace(0.15, 0.85, 8), np.full(8, 0.3), np.ones(8)], axis=1))
+
+
+@pytest.mark.parametrize("surfaces, ends", [((None, None), ([1.0, 1.0, 1.0], [1.0, 0.25, 1.0])),
+                                            (("x1", "z1"), ([1.0, 0.8, 0.55], [0.7, 0.3, 1.0])),
+                                            (("x1", "z1"), BITES)], ids=["nodes", "between nodes", "bites"])
+def test_suture_between_two_points_is_in_balance(block_mesh, surfaces, ends):
     """A suture tying two points of a block, neither on a support, pulls them together with
     equal and opposite forces: the supports carry nothing. Tied between nodes (the points on
     the surfaces x1 and z1, MaterialPoint), each end's force is shared by the nodes of its
     element in the proportions that interpolate its position, so the string's forces stay in
-    balance, moments included."""
-    ends = ([1.0, 1.0, 1.0], [1.0, 0.25, 1.0]) if surfaces[0] is None else ([1.0, 0.8, 0.55], [0.7, 0.3, 1.0])
+    balance, moments included; so with each end spread over a bite, a line of points across
+    several elements."""
     suture = Suture("tie", *ends, tension=0.02, first_surface=surfaces[0], second_surface=surfaces[1])
     scene = ef.Scene("tie", block_mesh((2, 4, 2)), {"solid": ef.NeoHooke(0.5)}, features=SYMMETRY + [suture],
                      probes={"a": [1.0, 1.0, 1.0], "b": [1.0, 0.25, 1.0]})
@@ -78,17 +85,22 @@ def test_suture_between_two_points_is_in_balance(block_mesh, surfaces):
         assert final["probes"]["a"][1] < 0  # the corner moved toward the other end
 
 
-def test_suture_ends_between_nodes_move_with_their_elements(block_mesh):
+@pytest.mark.parametrize("a, b", [([1.0, 0.3, 0.6], [0.35, 1.0, 0.2]), (BITES[0], BITES[1][:, [0, 2, 1]])],
+                         ids=["points", "bites"])
+def test_suture_ends_between_nodes_move_with_their_elements(block_mesh, a, b):
     """Four strings of tension T pull the corners of the face x = 1 along +x, a uniaxial stretch
     lambda (analytic.uniaxial_nominal_stress); a fifth string of no tension ties two points of the
-    faces x1 and y1 that lie between the nodes of the 2 x 1 x 1 block. Its ends move with the
-    homogeneous deformation F = diag(lambda, lambda^-1/2, lambda^-1/2) that the trilinear elements
-    interpolate exactly, so its length is |F (b - a)| (the nearest nodes are 0.5 and 0.25 away)."""
-    T, a, b = 0.05, np.array([1.0, 0.3, 0.6]), np.array([0.35, 1.0, 0.2])
+    faces x1 and y1 that lie between the nodes of the 2 x 1 x 1 block (the nearest nodes 0.5 and 0.25
+    away), or two bites on them, each the mean of a line of points across the block's elements. Its
+    ends move with the homogeneous deformation F = diag(lambda, lambda^-1/2, lambda^-1/2) that the
+    trilinear elements interpolate exactly, and so does a mean of points: its length is
+    |F (b - a)|, a and b the ends' (mean) points."""
+    T = 0.05
     sutures = [Suture(f"s{i}", corner, [1e6, corner[1], corner[2]], tension=T, anchored=True)
                for i, corner in enumerate(CORNERS)]
     probe = Suture("probe", a, b, tension=0.0, first_surface="x1", second_surface="y1")
     _, final = pulled_block(block_mesh, sutures + [probe])
+    a, b = np.mean(np.atleast_2d(a), axis=0), np.mean(np.atleast_2d(b), axis=0)
     stretch = brentq(lambda lam: uniaxial_nominal_stress(lam, C) - 4 * T, 1.0, 3.0)
     F = np.diag([stretch, stretch**-0.5, stretch**-0.5])
     assert probe.initial_length == pytest.approx(np.linalg.norm(b - a), rel=1e-12)
@@ -187,3 +199,19 @@ def test_tied_loop_holds_the_buckle_base_it_is_given(block_mesh):
     string, hold = suture._blocks()
     assert string @ s == pytest.approx(np.zeros(3), abs=1e-12)  # at rest: no stiffness across the string
     assert hold == pytest.approx(SLIDE_STIFFNESS * k * np.outer(s, s), rel=1e-12)
+
+
+def test_a_bite_is_in_the_scene_fingerprint():
+    """A checkpoint is resumed only by the scene that wrote it (output/fingerprint.py): two buckle
+    sutures that differ only in their bites' length (so in their ends' points, more than fit in a
+    fingerprint entry by entry) have fingerprints that differ at the end's points."""
+    from eyeball_fenicsx.meshing.builders.buckled_eye import suture_points
+    from eyeball_fenicsx.output.fingerprint import attributes, first_difference
+
+    def described(bite):
+        point = suture_points({"n_circ": 16, "sector_deg": 180.0}, bite=bite)[0]
+        suture = Suture(point["name"], point["sclera_bite"], point["buckle_bite"], shortening=0.1,
+                        first_surface="sclera_outer", second_surface="band_outer")
+        return {"suture": attributes(suture)}
+    assert first_difference(described(3.0), described(3.0)) is None
+    assert first_difference(described(3.0), described(2.0)).startswith("suture.first_point")

@@ -138,8 +138,7 @@ class NodalForce(Feature):
         if self.surface is not None:
             dofs = [d[d < owned] for d in solid.surface_dofs(self.surface)]
         else:
-            node = MaterialNode(solid, self.point)
-            dofs = [np.array([d]) for d in node.local] if node.local is not None else [np.empty(0, np.int32)] * 3
+            dofs = list(MaterialNode(solid, self.point).local.T)  # its owner's one node, none elsewhere
         self.dofs = dofs
         self.num_nodes = solid.comm.allreduce(len(dofs[0]), op=MPI.SUM)
 

@@ -5,7 +5,10 @@ direction e = (x_b - x_a) / l at its two ends. An end given with its surface is 
 point of that surface's elements to where the suture is tied (``mechanics.solid.MaterialPoint``):
 its motion is interpolated from the nodes of its element, x = sum_i N_i x_i, and its force shared
 among them as N_i f, so the suture is where it was put on any mesh; an end given without a surface
-is the nearest node. It derives from a potential:
+is the nearest node. An end given as several points of its surface is their mean, its force spread
+evenly over them: a bite, the thread's pass through the tissue, which a point force would not be
+(under a point force a continuum's displacement has no limit as the mesh is refined, so what the
+string reaches would depend on the elements around its end). It derives from a potential:
 
 * tension-driven: Pi = T l, the force T e on end a (toward b), -T e on end b;
 * shortening-driven: a stiff string whose rest length is shortened by s,
@@ -71,7 +74,8 @@ class Suture(Feature):
         stiffness: k of the string for shortening (default: SUTURE_EA / initial length).
         first_surface, second_surface: the surfaces the ends are on: an end is then the nearest
             point of that surface's elements to ``first`` (``second``), its motion interpolated
-            from the nodes of the element there (``MaterialPoint``); without a surface, the
+            from the nodes of the element there (``MaterialPoint``), or, given several points
+            (m, 3), their mean, its force shared evenly among them (a bite); without a surface, the
             nearest mesh node.
         anchored: the second end is a fixed point in space, not a node.
         bilateral: the string also pushes (a loop tied around a buckle), see the module docstring.

@@ -191,55 +191,74 @@ class MixedSolid:
 
 
 class MaterialPoint:
-    """The nearest point of a surface's elements to a reference point, wherever the nodes are:
-    its displacement is interpolated by the shape functions of the element that holds it,
-    u = sum_i N_i(xi) u_i, so a string tied there pulls its nodes with N_i times its force.
-    The element is the surface element whose reference image of the point, xi pulled back and
-    clipped to the reference cell, lies nearest to it (a point on a smooth surface lies a sagitta
-    off the faceted one). Known on every rank: its nodes' global displacement dofs (node-major,
-    3 a node), their weights N_i (k,), its reference position and ``distance`` from the point."""
+    """A material point of a surface, wherever the nodes are: the nearest point of the surface's
+    elements to a reference point, its displacement interpolated by the shape functions of the
+    element that holds it, u = sum_i N_i(xi) u_i, so a string tied there pulls its nodes with N_i
+    times its force. The element is the surface element whose reference image of the point, xi
+    pulled back and clipped to the reference cell, lies nearest to it (a point on a smooth surface
+    lies a sagitta off the faceted one).
+
+    Given several points (m, 3), it is their mean, a load spread evenly over them (a suture's bite
+    along its length): each point is found as above and node i takes the weight
+    w_i = sum_p N_i(xi_p) / m, so u = sum_i w_i u_i and a force f is shared as w_i f, the potential's
+    own split. Known on every rank: its nodes' global displacement dofs (node-major, 3 a node),
+    their weights w_i (k,), its reference position and ``distance``, the largest of its points'
+    from their surface; ``owner`` is the rank that found its first point."""
 
     CANDIDATES = 8  # elements pulled back, the nearest by their nodes' centroid
 
     def __init__(self, solid: MixedSolid, point, surface: str):
-        self.solid, point = solid, np.asarray(point, dtype=float)
+        self.solid, points = solid, np.atleast_2d(np.asarray(point, dtype=float))
         msh = solid.mesh_data.mesh
         msh.topology.create_connectivity(msh.topology.dim - 1, msh.topology.dim)
         f2c = msh.topology.connectivity(msh.topology.dim - 1, msh.topology.dim)
         facets = solid.mesh_data.facets(surface)
         cells = np.unique(np.concatenate([f2c.links(f) for f in facets] + [np.empty(0, np.int32)]))
         cells = cells[cells < msh.topology.index_map(msh.topology.dim).size_local]
-        V0, to_W = solid.component(0)
+        V0, _ = solid.component(0)
         nodes = V0.dofmap.list.array.reshape(-1, V0.dofmap.dof_layout.num_dofs)[cells]
         X = V0.tabulate_dof_coordinates()[nodes]  # (cells, k, 3)
-        best, found, element = (np.inf, solid.comm.rank), None, _element(V0)
-        for c in np.argsort(np.linalg.norm(X.mean(axis=1) - point, axis=1))[:self.CANDIDATES]:
+        element = _element(V0)
+        distances, found = np.full(len(points), np.inf), [None] * len(points)
+        near = np.argsort(np.linalg.norm(X.mean(axis=1)[None] - points[:, None], axis=2), axis=1)[:, :self.CANDIDATES]
+        for c in np.unique(near):  # each candidate element pulls back the points it is a candidate for
             geometry = msh.geometry.x[msh.geometry.dofmap.links(cells[c])]
-            try:
-                xi = msh.geometry.cmap.pull_back(point[None], geometry)
-            except RuntimeError:  # the map's Newton fails for a point far outside a distorted element
+            group = np.flatnonzero((near == c).any(axis=1))
+            xi = _pull_back(msh.geometry.cmap, points[group], geometry)
+            group, xi = group[np.isfinite(xi).all(axis=1)], xi[np.isfinite(xi).all(axis=1)]
+            if not len(group):
                 continue
-            xi = _clip_to_reference(msh.topology.cell_type.name, xi)
-            N = element.tabulate(0, xi)[0, 0, :, 0]
-            distance = float(np.linalg.norm(N @ X[c] - point))
-            if distance < best[0]:
-                best, found = (distance, solid.comm.rank), (c, N)
-        self.distance, self.owner = solid.comm.allreduce(best, op=MPI.MIN)
+            N = element.tabulate(0, _clip_to_reference(msh.topology.cell_type.name, xi))[0, :, :, 0]
+            for p, Np, distance in zip(group, N, np.linalg.norm(N @ X[c] - points[group], axis=1)):
+                if distance < distances[p]:
+                    distances[p], found[p] = distance, (c, Np)
+        # each point is found by the rank holding its nearest element (ties: the lower rank)
+        everyone = np.array(solid.comm.allgather(distances))
+        owners = everyone.argmin(axis=0)
+        self.distance, self.owner = float(everyone.min(axis=0).max()), int(owners[0])
         if not np.isfinite(self.distance):
-            raise SceneError(f"no element on surface {surface!r} near {point.tolist()}")
-        self.local, data = None, None
-        if solid.comm.rank == self.owner:
-            c, N = found
+            raise SceneError(f"no element on surface {surface!r} near {points[0].tolist()}")
+        rows, weights, coordinates = [], [], []  # this rank's share: its points' nodes
+        for p in np.flatnonzero(owners == solid.comm.rank):
+            c, N = found[p]
             keep = np.abs(N) > 1e-14  # the nodes off the point's face carry nothing
-            self.local = np.array([np.asarray(solid.component(i)[1])[nodes[c][keep]] for i in range(3)], np.int32).T
-            data = (solid.W.dofmap.index_map.local_to_global(self.local.ravel()), N[keep], N @ X[c])
-        dofs, self.weights, self.reference = solid.comm.bcast(data, root=self.owner)
-        self.dofs = np.asarray(dofs, dtype=PETSc.IntType)
+            rows.append(np.array([np.asarray(solid.component(i)[1])[nodes[c][keep]] for i in range(3)]).T)
+            weights.append(N[keep] / len(points))
+            coordinates.append(X[c][keep])
+        self.local = np.concatenate(rows + [np.empty((0, 3), np.int32)]).astype(np.int32)
+        self.local_weights = np.concatenate(weights + [np.empty(0)])
+        mine = (solid.W.dofmap.index_map.local_to_global(self.local.ravel()).reshape(-1, 3), self.local_weights,
+                np.concatenate(coordinates + [np.empty((0, 3))]))
+        dofs, w, x = (np.concatenate(parts) for parts in zip(*solid.comm.allgather(mine)))
+        first, index = np.unique(dofs[:, 0], return_index=True)  # a node met by several points: one weight
+        self.weights = np.bincount(np.searchsorted(first, dofs[:, 0]), weights=w)
+        self.dofs = np.asarray(dofs[index].ravel(), dtype=PETSc.IntType)
+        self.reference = self.weights @ x[index]
 
     def position(self) -> np.ndarray:
-        """Current position (collective): the weighted positions of its nodes, on the owner."""
-        u = self.weights @ self.solid.w.x.array[self.local].reshape(-1, 3) if self.local is not None else None
-        return self.reference + self.solid.comm.bcast(u, root=self.owner)
+        """Current position (collective): the weighted positions of its nodes, summed over the ranks."""
+        u = self.local_weights @ self.solid.w.x.array[self.local].reshape(-1, 3)
+        return self.reference + self.solid.comm.allreduce(u, op=MPI.SUM)
 
 
 class MaterialNode(MaterialPoint):
@@ -249,8 +268,6 @@ class MaterialNode(MaterialPoint):
 
     def __init__(self, solid: MixedSolid, point, surface: str | None = None):
         self.solid = solid
-        W = solid.W
-        owned = solid.num_owned
         V0, to_W = solid.component(0)
         x = V0.tabulate_dof_coordinates()
         candidates = np.arange(V0.dofmap.index_map.size_local)
@@ -262,15 +279,13 @@ class MaterialNode(MaterialPoint):
         self.distance, self.owner = solid.comm.allreduce(best, op=MPI.MIN)
         if not np.isfinite(self.distance):
             raise SceneError(f"no mesh node on surface {surface!r} near {list(point)}")
-        local = None
+        self.local, self.local_weights, data = np.empty((0, 3), np.int32), np.empty(0), None
         if solid.comm.rank == self.owner:
             node = candidates[int(distance.argmin())]
-            local = np.array([solid.component(i)[1][node] for i in range(3)], dtype=np.int32)
-            assert (local < owned).all()
-        self.local = local
-        data = None
-        if local is not None:
-            data = (W.dofmap.index_map.local_to_global(local), x[node])
+            self.local = np.array([[solid.component(i)[1][node] for i in range(3)]], dtype=np.int32)
+            self.local_weights = np.ones(1)
+            assert (self.local < solid.num_owned).all()
+            data = (solid.W.dofmap.index_map.local_to_global(self.local.ravel()), x[node])
         self.dofs, self.reference = solid.comm.bcast(data, root=self.owner)
         self.dofs = np.asarray(self.dofs, dtype=PETSc.IntType)
         self.weights = np.ones(1)
@@ -281,6 +296,17 @@ def _element(V: fem.FunctionSpace):
     element = V.ufl_element()
     return basix.create_element(basix.ElementFamily.P, getattr(basix.CellType, element.cell().cellname()),
                                 element.degree(), basix.LagrangeVariant.gll_warped)
+
+
+def _pull_back(cmap, points: np.ndarray, geometry: np.ndarray) -> np.ndarray:
+    """The reference coordinates of ``points`` in the element of nodes ``geometry``, NaN where the
+    map's Newton fails (a point far outside a distorted element: it would fail the others with it)."""
+    try:
+        return cmap.pull_back(points, geometry)
+    except RuntimeError:
+        if len(points) == 1:
+            return np.full_like(points, np.nan)
+        return np.vstack([_pull_back(cmap, point[None], geometry) for point in points])
 
 
 def _clip_to_reference(cell: str, xi: np.ndarray) -> np.ndarray:

@@ -4,11 +4,11 @@ scene that wrote it (output/checkpoint.py).
 It holds the scene's name and element, the mesh (its source, the builder's parameters, the
 numbers of cells and nodes and a checksum of the node coordinates), the materials, the probes,
 the names of the steps, and every feature and observer described by its public attributes of
-plain values (numbers, strings, flags, small vectors; a feature it refers to by its name; an
-object such as a rigid shape by its own attributes). It is taken before the scene is built, from
-what the user gave. The solver's settings and the steps' increments are left out: they choose the
-path to the answer, not the answer, so a step that did not converge may be resumed with more
-increments.
+plain values (numbers, strings, flags, small vectors, a longer array by its shape and a checksum;
+a feature it refers to by its name; an object such as a rigid shape by its own attributes). It is
+taken before the scene is built, from what the user gave. The solver's settings and the steps'
+increments are left out: they choose the path to the answer, not the answer, so a step that did
+not converge may be resumed with more increments.
 
 Two fingerprints are compared entry by entry, numbers to a relative 1e-12 (the coordinate
 checksum is summed over the ranks in another order on another number of ranks); the first entry
@@ -27,7 +27,7 @@ from .files import flatten
 
 _PLAIN = (bool, int, float, str, type(None))
 _SKIP = object()  # a value that describes nothing (a function, a form, a mesh)
-_MAX_ARRAY = 64  # longer arrays are a feature's own data (its dofs), not what the user gave
+_MAX_ARRAY = 64  # longer arrays (a suture's bite, its points) are described by their shape and a checksum
 
 
 def describe(value: Any, depth: int = 0) -> Any:
@@ -39,7 +39,10 @@ def describe(value: Any, depth: int = 0) -> Any:
     if isinstance(value, Feature):
         return value.name
     if isinstance(value, np.ndarray):
-        return value.tolist() if value.size <= _MAX_ARRAY else _SKIP
+        if value.size <= _MAX_ARRAY:
+            return value.tolist()
+        numbers = value.astype(float).ravel()
+        return {"shape": list(value.shape), "checksum": math.fsum(numbers * np.arange(1, numbers.size + 1))}
     if isinstance(value, (list, tuple)):
         if len(value) > _MAX_ARRAY:
             return _SKIP

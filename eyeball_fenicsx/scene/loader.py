@@ -45,10 +45,10 @@ Extensions beyond the contract (documented in README.md):
   ``penetrated_area_mm2``;
 * ``[mesh] builder = "eye" | "band" | "buckled_eye"`` (eyeball_fenicsx/meshing/builders/eye.py,
   band.py, buckled_eye.py);
-* ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``tension`` or ``shortening``,
+* ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``bite``, ``tension`` or ``shortening``,
   ``stiffness``, ``step``): sutures generated from the buckled eye's geometry, each tying a
-  sclera bite ``width / 2`` from the buckle's centre line to the buckle's top edge; they are
-  tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``).
+  sclera bite ``width / 2`` from the buckle's centre line, ``bite`` mm long, to the buckle's top
+  edge; they are tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``).
 """
 import dataclasses
 import os

@@ -108,7 +108,8 @@ def read_buckle_sutures(reading: Reading) -> None:
     buckle (so they hold it both ways)."""
     if "buckle_sutures" not in reading.data:
         return
-    t = reading.table("buckle_sutures", {"count", "width", "azimuths", "tension", "shortening", "stiffness", "step"})
+    t = reading.table("buckle_sutures", {"count", "width", "azimuths", "bite", "tension", "shortening", "stiffness",
+                                         "step"})
     mesh = reading.data.get("mesh") if isinstance(reading.data.get("mesh"), dict) else {}
     if mesh.get("builder") != "buckled_eye":
         raise t.error('needs [mesh] builder = "buckled_eye" (the sutures follow its buckle)')
@@ -117,6 +118,8 @@ def read_buckle_sutures(reading: Reading) -> None:
     parameters = {k: v for k, v in mesh.items() if k != "builder"}
     where = {"count": t.get("count", "integer", 4), "suture_width": t.get("width", "positive"),
              "azimuth_deg": t.get("azimuths", "numbers")}
+    if t.has("bite"):
+        where["bite"] = t.get("bite", "nonnegative")
     pull = {"tension": t.get("tension", "nonnegative"), "shortening": t.get("shortening", "nonnegative"),
             "stiffness": t.get("stiffness", "positive"), "bilateral": True, "step": reading.step_of(t)}
     with t.located((SceneError, TypeError)):  # the buckle's own checks (and those of [mesh])
@@ -127,7 +130,8 @@ def read_buckle_sutures(reading: Reading) -> None:
         reading.sutures.add(point["name"])
         ends = {"first_surface": point["sclera_surface"], "second_surface": point["buckle_surface"],
                 "hold": point["hold"], "hold_surface": point["hold_surface"]}
-        reading.add(t, Suture, point["name"], point["sclera"], point["buckle"], share=point["share"], **ends, **pull)
+        reading.add(t, Suture, point["name"], point["sclera_bite"], point["buckle_bite"], share=point["share"], **ends,
+                    **pull)
 
 
 def read_eye(reading: Reading) -> None:

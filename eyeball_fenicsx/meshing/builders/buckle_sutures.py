@@ -18,9 +18,20 @@ angles along its length, two sutures ("side_0" and "side_1", at its smaller and 
 from bites on the sclera ``suture_width`` / 2 to either side of its middle azimuth (measured along
 the sclera's circle of latitude) to the points of its top edges there.
 
-Each end is the point itself, wherever the mesh's nodes are: the Suture feature ties the point
-of its surface nearest to it, its motion interpolated from the element there
-(``mechanics.solid.MaterialPoint``), so a suture is where the surgeon puts it on every mesh.
+Each end is where the surgeon puts it, wherever the mesh's nodes are: the Suture feature ties the
+point of its surface nearest to each of its points, its motion interpolated from the element there
+(``mechanics.solid.MaterialPoint``). And it is a *bite*, not a point: the thread passes through the
+sclera along the buckle's edge (along the circle of latitude; along the meridian beside a radial
+sponge) and pulls that whole pass, so each end is spread evenly over ``bite`` mm there
+(``BITE_LENGTH`` by default; points ``BITE_SPACING`` apart), and the knot's end over the same arc of
+the buckle's top edge, which the loop's two crossings span. A point force would not do: a
+continuum's displacement under one has no limit as the mesh is refined, and with point ends the
+segmental tire's indentation moved by a third between meshes and did not settle (README, "Sutures
+where the surgeon puts them"). A bite is at most as long as the arc between neighbouring sutures, so
+that two never overlap, and is cut at the ends of a tire and at a wedge's cut planes (a suture on a
+cut plane, at half share, spreads over the half of its bite in the model). ``BITE_LENGTH`` = 3 mm
+is our choice, not a published figure: we found none in the sources we could read; a scene sets its
+own (``[buckle_sutures] bite``; 0 ties each end at its point, for comparison).
 
 In a wedge model a suture on a cut plane is kept with ``share`` 1/2 (its mirror image holds the
 other half): dropping it can leave the buckle with a single suture azimuth, whose two strings meet
@@ -32,17 +43,20 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ...checks import is_number
 from ...errors import SceneError
 from .buckle_placement import BuckleBody, BuckleLayout, buckle_layout
 from .eye_meridian import LIMBUS_BLEND
 from .hexes import check
 
 SUTURE_MARGIN = 1.0
+BITE_LENGTH = 3.0  # mm along the sclera: our choice, not a published figure (the module docstring)
+BITE_SPACING = 0.1  # mm between the points a bite's load is spread over
 _SUTURE_SIDES = ("back", "front")
 
 
 def suture_points(parameters: dict | None = None, count: int = 4, suture_width: float | None = None,
-                  azimuth_deg: Sequence[float] | None = None) -> list[dict]:
+                  azimuth_deg: Sequence[float] | None = None, bite: float = BITE_LENGTH) -> list[dict]:
     """Reference points of the buckle's sutures (see the module docstring for the convention).
 
     Args:
@@ -57,6 +71,7 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
             meridian (default: the widest buckle body's footprint plus ``SUTURE_MARGIN`` on each
             side); it must exceed the widest body's footprint.
         azimuth_deg: explicit azimuths (degrees) instead of ``count`` (not for a radial sponge).
+        bite: the length of each bite along the sclera (mm), see the module docstring.
 
     The points lie on the smooth surfaces (the sclera's sphere of radius R_o, the body's edges);
     the Suture feature ties the nearest point of each surface's elements (the module docstring).
@@ -66,8 +81,9 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
         "azimuth_deg", "side", "share" (1, or 1/2 on a cut plane of a wedge), "sclera": bite point
         (x, y, z), "buckle": buckle point, "hold": the point of the buckle's base under it,
         "sclera_surface": "sclera_outer", "buckle_surface": "<body>_outer", "hold_surface":
-        "<body>_inner"} -- ready for ``Suture(name, first=sclera, second=buckle, first_surface=...,
-        second_surface=..., hold=..., hold_surface=...)``.
+        "<body>_inner", "sclera_bite" and "buckle_bite": the points each end is spread over, around
+        "sclera" and "buckle"} -- ready for ``Suture(name, first=sclera_bite, second=buckle_bite,
+        first_surface=..., second_surface=..., hold=..., hold_surface=...)``.
     """
     layout = buckle_layout(**(parameters or {}))
     body = layout.bodies[layout.sutured]
@@ -75,26 +91,34 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
         if azimuth_deg is not None:
             raise SceneError("buckled_eye: a radial sponge's sutures cross it along its length: give their count, "
                              "not azimuths")
-        return _across_sponge(layout, body, count, suture_width)
+        return _across_sponge(layout, body, count, suture_width, bite)
     half = _half_width(layout, suture_width)
     sector = math.radians(layout.eye["sector_deg"])
     wedge = sector < 2 * np.pi
     Ro, theta_c = layout.globe_radius, layout.centre_theta
+    azimuths = _azimuths(layout, body, count, azimuth_deg)
+    latitude = Ro * math.sin(theta_c)  # the radius of the circle of latitude the bites lie along
+    mirrored = np.concatenate([azimuths, -np.asarray(azimuths), 2 * sector - np.asarray(azimuths)])
+    span = _bite_span(bite, mirrored if wedge else azimuths, latitude)  # a wedge's mirror images count too
+    low, high = (body.azimuths[0], body.azimuths[-1]) if body.arc_deg < 360.0 else (0.0, sector) if wedge \
+        else (None, None)  # a bite stays on the buckle and in the model
     sutures = []
-    for phi in _azimuths(layout, body, count, azimuth_deg):
+    for phi in azimuths:
         share = 0.5 if wedge and not 1e-9 < phi < sector - 1e-9 else 1.0  # on a cut plane: half in the wedge
-        direction = np.array([math.cos(phi), math.sin(phi)])
+        # the bite's middle in the range of its limits (a tire across azimuth 0)
+        spread = _spread(phi if low is None else low + (phi - low) % (2 * np.pi), span, latitude, low, high)
         for side, sign in zip(_SUTURE_SIDES, (-1, 1)):
-            bite, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
-            sclera = Ro * np.array([*(math.sin(bite) * direction), -math.cos(bite)])
-            edge_direction = np.array([*(math.sin(edge) * direction), -math.cos(edge)])
+            bite_theta, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
             degrees = round(math.degrees(phi), 9)
             sutures.append({"name": f"suture_{degrees:g}_{side}", "azimuth_deg": degrees, "side": side,
-                            "share": share, "sclera": tuple(sclera.tolist()), **_edge(body, edge_direction)})
+                            "share": share, "sclera": tuple(_on_sphere(Ro, bite_theta, phi).tolist()),
+                            **_edge(body, _on_sphere(1.0, edge, phi)),
+                            "sclera_bite": _on_sphere(Ro, bite_theta, spread).tolist(),
+                            "buckle_bite": _on_sphere(body.outer_radius, edge, spread).tolist()})
     return sutures
 
 
-def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width):
+def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width, bite):
     """The sutures of a radial sponge: ``count`` pairs across it, spread along its length."""
     check("buckled_eye", "count", count, "positive integer")
     Ro = layout.globe_radius
@@ -106,19 +130,29 @@ def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width):
         raise SceneError(f"buckled_eye: suture_width {suture_width} must exceed the sponge's width {width:.3f} mm "
                          "on the sclera")
     middle = math.radians(body.azimuth_deg)
+    thetas = body.theta[0] + (body.theta[1] - body.theta[0]) * (np.arange(count) + 0.5) / count
+    span = _bite_span(bite, thetas, Ro)  # the bites run along the meridian, beside the sponge's sides
     sutures = []
-    for theta in body.theta[0] + (body.theta[1] - body.theta[0]) * (np.arange(count) + 0.5) / count:
+    for theta in thetas:
         half = suture_width / 2 / (Ro * math.sin(theta))
+        spread = _spread(theta, span, Ro, *body.theta)
         for side, sign, edge in zip(("side_0", "side_1"), (-1, 1), (body.azimuths[0], body.azimuths[-1])):
-            bite = middle + sign * half
-            sclera = Ro * np.array([math.sin(theta) * math.cos(bite), math.sin(theta) * math.sin(bite),
-                                    -math.cos(theta)])
-            edge_direction = np.array([math.sin(theta) * math.cos(edge), math.sin(theta) * math.sin(edge),
-                                       -math.cos(theta)])
+            bite_phi = middle + sign * half
             sutures.append({"name": f"suture_{math.degrees(theta):.4g}_{side}", "azimuth_deg": body.azimuth_deg,
                             "polar_deg": math.degrees(theta), "side": side, "share": 1.0,
-                            "sclera": tuple(sclera.tolist()), **_edge(body, edge_direction)})
+                            "sclera": tuple(_on_sphere(Ro, theta, bite_phi).tolist()),
+                            **_edge(body, _on_sphere(1.0, theta, edge)),
+                            "sclera_bite": _on_sphere(Ro, spread, bite_phi).tolist(),
+                            "buckle_bite": _on_sphere(body.outer_radius, spread, edge).tolist()})
     return sutures
+
+
+def _on_sphere(radius, polar, azimuth) -> np.ndarray:
+    """Points of the sphere of ``radius`` about the origin at polar angles from the -z axis and azimuths
+    (rad; either may be an array)."""
+    polar, azimuth = np.broadcast_arrays(polar, azimuth)
+    return radius * np.stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), -np.cos(polar)],
+                             axis=-1)
 
 
 def _edge(body: BuckleBody, direction: np.ndarray) -> dict:
@@ -129,6 +163,27 @@ def _edge(body: BuckleBody, direction: np.ndarray) -> dict:
             "hold": tuple((body.inner_radius * direction).tolist()),
             "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer",
             "hold_surface": f"{body.name}_inner"}
+
+
+def _bite_span(bite, angles, radius) -> float:
+    """Half a bite's span as an angle (rad) on a circle of ``radius``: ``bite`` long, or shorter where the
+    neighbouring sutures' ``angles`` (rad, their mirror images in a wedge among them) are closer, so
+    that two bites never overlap."""
+    if not (is_number(bite) and bite >= 0):
+        raise SceneError(f"buckled_eye: bite must be a nonnegative number (0: a point), got {bite!r}")
+    every = np.unique(np.mod(angles, 2 * np.pi).round(12))  # a suture on a cut plane is its own mirror image
+    closest = np.diff(np.concatenate([every, every[:1] + 2 * np.pi])).min() if len(every) > 1 else 2 * np.pi
+    return 0.5 * min(bite / radius, closest)
+
+
+def _spread(middle, half, radius, low=None, high=None) -> np.ndarray:
+    """The angles (rad) of the points a bite from ``middle - half`` to ``middle + half`` on a circle of
+    ``radius`` is spread over, its span cut to [low, high]: the midpoints of equal pieces at most
+    ``BITE_SPACING`` long."""
+    start, end = middle - half, middle + half
+    start, end = (start if low is None else max(start, low)), (end if high is None else min(end, high))
+    pieces = max(1, math.ceil((end - start) * radius / BITE_SPACING))
+    return start + (end - start) * (np.arange(pieces) + 0.5) / pieces
 
 
 def _half_width(layout: BuckleLayout, suture_width):
