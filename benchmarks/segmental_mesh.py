@@ -3,11 +3,11 @@ bites and tied at points.
 
 The scene is demos/segmental_buckle.toml (a silicone tire sutured onto the sclera, the sutures
 shortened by 0.4 mm: the planning matrix's segmental-0.4), with its defaults but for the mesh and
-the bite: each mesh ``N`` or ``N:R`` (``[mesh] n_circ = N``, ``refine = R``, default 1) is run with
-each ``--bites`` length (``[buckle_sutures] bite``, mm; 0 ties each end at its point, the
-model before the bites). A point force on a continuum has no mesh limit, a force spread along a
-line of finite length has one: the question is whether the predictions settle as the mesh is
-refined around the eye (n_circ) and along and through it (refine).
+the bite: each mesh ``N[:R[:W]]`` (``[mesh] n_circ = N``, ``refine = R``, ``wall_layers = W``,
+default 1 each) is run with each ``--bites`` length (``[buckle_sutures] bite``, mm; 0 ties each end
+at its point, the model before the bites). A point force on a continuum has no mesh limit: the
+question is whether the predictions settle as the mesh is refined around the eye (n_circ), through
+its wall (wall_layers) and along and through it (refine).
 
 Each row: the mesh, bite, hexahedra, unknowns, the slowest rank's ``Scene.run`` wall time (the
 mesh built and the forms compiled before), Newton iterations, and after the sutures the buckle

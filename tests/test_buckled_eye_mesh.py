@@ -302,9 +302,9 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
         assert (arc > 0) == (suture["side"] == "front")
         assert _polar(knot[None])[1][0] == pytest.approx(phi[0], abs=1e-12)
         # The bite: points on the bite's circle of latitude, evenly spaced at most BITE_SPACING apart over
-        # at most BITE_LENGTH (less where the sutures' azimuths are closer: the tire's, 15 degrees apart
-        # on 12.16 mm, 3.18 mm), centred on the suture's azimuth; the knot's end over the same azimuths of
-        # the body's top edge.
+        # BITE_LENGTH (less only where the sutures' azimuths are closer: the tire's are 15 degrees apart,
+        # 3.1 mm on the bites' latitudes), centred on the suture's azimuth; the knot's end over the same
+        # azimuths of the body's top edge.
         spread, over = np.array(suture["sclera_bite"]), np.array(suture["buckle_bite"])
         assert np.linalg.norm(spread, axis=1) == pytest.approx(radius, abs=1e-9)
         assert _polar(spread)[0] == pytest.approx(theta[0], abs=1e-12)
@@ -312,8 +312,9 @@ def test_suture_points_lie_on_their_surfaces(model, parameters, body, count, req
         azimuths = _polar(spread)[1]
         assert _polar(over)[1] == pytest.approx(azimuths, abs=1e-12)
         step = np.diff(azimuths)
-        assert step == pytest.approx(step[0], rel=1e-9) and step[0] * radius * math.sin(theta[0]) <= BITE_SPACING
-        length = (azimuths[-1] - azimuths[0] + step[0]) * radius * math.sin(layout.centre_theta)
+        assert step == pytest.approx(step[0], rel=1e-9)
+        assert step[0] * radius * math.sin(theta[0]) <= BITE_SPACING * (1 + 1e-9)
+        length = (azimuths[-1] - azimuths[0] + step[0]) * radius * math.sin(theta[0])  # on its own latitude
         assert length == pytest.approx(BITE_LENGTH, rel=1e-9)
         assert azimuths.mean() == pytest.approx(phi[0], abs=1e-12)
     wider = buckled_eye.suture_points(parameters, count=2, suture_width=8.0)
@@ -386,6 +387,20 @@ def test_suture_on_a_cut_plane_is_kept_at_half_share():
                                         azimuth_deg=[-22.5, 0.0, 7.5])
     shares = sorted((s["azimuth_deg"], s["side"], s["share"]) for s in sutures)
     assert shares == [(0.0, "back", 0.5), (0.0, "front", 0.5), (7.5, "back", 1.0), (7.5, "front", 1.0)]
+
+
+def test_a_bite_stays_on_its_tire():
+    """A bite is cut at the ends of its tire: a suture at the tire's end (azimuth -30 degrees, given a
+    hair outside it) keeps its bite on the tire, from -30 degrees into it, half of BITE_LENGTH long on
+    its latitude; one at 7.5 degrees keeps the whole of it."""
+    tire = {"width": 4.0, "height": 1.0, "arc_deg": 60.0, "azimuth_deg": 0.0}
+    end, inside = buckled_eye.suture_points({"n_circ": 16, "sector_deg": 360.0, "tire": tire},
+                                            azimuth_deg=[-30.00000001, 7.5])[::2]
+    for suture, length in ((end, BITE_LENGTH / 2), (inside, BITE_LENGTH)):
+        theta, phi = _polar(np.array(suture["sclera_bite"]))
+        arc = (np.ptp(np.unwrap(phi)) * len(phi) / (len(phi) - 1)) * np.linalg.norm(suture["sclera"]) * np.sin(theta[0])
+        assert arc == pytest.approx(length, rel=1e-6)  # the end's 1e-8 degrees outside: 2e-9 mm
+        assert np.all(np.abs(np.degrees(np.angle(np.exp(1j * phi)))) <= 30.0 + 1e-9)
 
 
 def test_radial_sponge_and_its_sutures():

@@ -6,6 +6,7 @@ from scipy.optimize import brentq
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import uniaxial_nominal_stress
+from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.features.band import BandTightening
 from eyeball_fenicsx.features.sutures import SLIDE_STIFFNESS, SUTURE_EA, Suture
 from eyeball_fenicsx.mechanics.solid import MixedSolid
@@ -215,3 +216,15 @@ def test_a_bite_is_in_the_scene_fingerprint():
         return {"suture": attributes(suture)}
     assert first_difference(described(3.0), described(3.0)) is None
     assert first_difference(described(3.0), described(2.0)).startswith("suture.first_point")
+
+
+@pytest.mark.parametrize("ends, options, fragment", [
+    ((BITES[0], [0.0, 0.0, 0.0]), {}, "first is 9 points .a bite.: give the surface"),
+    (([1.0, 0.5, 0.5], BITES[1]), {"first_surface": "x1", "anchored": True}, "second is 8 points"),
+    (([1.0, 0.5], [0.0, 0.0, 0.0]), {}, "first must be a point"),
+])
+def test_a_bite_needs_its_surface(ends, options, fragment):
+    """A bite's points are spread over the elements of the surface they are on: given without it (or
+    as an anchored end, a point in space), a suture is refused with a line that says which end."""
+    with pytest.raises(SceneError, match=fragment):
+        Suture("s", *ends, tension=0.1, **options)

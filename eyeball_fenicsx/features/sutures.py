@@ -103,6 +103,13 @@ class Suture(Feature):
             raise SceneError(f"{what}share must be in (0, 1], got {share!r}")
         self.name, self.step, self.share = name, step, float(share)
         self.first_point, self.second_point = np.asarray(first, float), np.asarray(second, float)
+        for key, points, surface in (("first", self.first_point, first_surface),
+                                     ("second", self.second_point, None if anchored else second_surface)):
+            if points.shape[-1:] != (3,) or points.ndim > 2:
+                raise SceneError(f"{what}{key} must be a point (x, y, z) or a list of them, got shape {points.shape}")
+            if points.ndim == 2 and surface is None:  # a bite is spread over its surface's elements
+                raise SceneError(f"{what}{key} is {len(points)} points (a bite): give the surface they are on "
+                                 f"({key}_surface; an anchored end is one point)")
         self.tension, self.shortening, self.stiffness = tension, shortening, stiffness
         self.surfaces, self.anchored, self.bilateral = (first_surface, second_surface), anchored, bilateral
         self.hold_point = None if hold is None else (np.asarray(hold, float), hold_surface)

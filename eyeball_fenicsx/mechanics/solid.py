@@ -239,10 +239,11 @@ class MaterialPoint:
         if not np.isfinite(self.distance):
             raise SceneError(f"no element on surface {surface!r} near {points[0].tolist()}")
         rows, weights, coordinates = [], [], []  # this rank's share: its points' nodes
+        to_W = [np.asarray(solid.component(i)[1]) for i in range(3)]
         for p in np.flatnonzero(owners == solid.comm.rank):
             c, N = found[p]
             keep = np.abs(N) > 1e-14  # the nodes off the point's face carry nothing
-            rows.append(np.array([np.asarray(solid.component(i)[1])[nodes[c][keep]] for i in range(3)]).T)
+            rows.append(np.array([to_W[i][nodes[c][keep]] for i in range(3)]).T)
             weights.append(N[keep] / len(points))
             coordinates.append(X[c][keep])
         self.local = np.concatenate(rows + [np.empty((0, 3), np.int32)]).astype(np.int32)

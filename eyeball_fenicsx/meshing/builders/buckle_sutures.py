@@ -28,8 +28,10 @@ the buckle's top edge, which the loop's two crossings span. A point force would 
 continuum's displacement under one has no limit as the mesh is refined, and with point ends the
 segmental tire's indentation moved by a third between meshes and did not settle (README, "Sutures
 where the surgeon puts them"). A bite is at most as long as the arc between neighbouring sutures, so
-that two never overlap, and is cut at the ends of a tire and at a wedge's cut planes (a suture on a
-cut plane, at half share, spreads over the half of its bite in the model). ``BITE_LENGTH`` = 3 mm
+that two never overlap, and is cut at the ends of a tire and at a wedge's cut planes. A suture on a
+cut plane, at half share, spreads over the half of its bite in the model, so its string runs from
+that half's mean, off the plane (across it, 4-5 % of the tension): such a half model is close to,
+not exactly, half of the whole eye (no shipped scene has one). ``BITE_LENGTH`` = 3 mm
 is our choice, not a published figure: we found none in the sources we could read; a scene sets its
 own (``[buckle_sutures] bite``; 0 ties each end at its point, for comparison).
 
@@ -97,18 +99,19 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     wedge = sector < 2 * np.pi
     Ro, theta_c = layout.globe_radius, layout.centre_theta
     azimuths = _azimuths(layout, body, count, azimuth_deg)
-    latitude = Ro * math.sin(theta_c)  # the radius of the circle of latitude the bites lie along
-    mirrored = np.concatenate([azimuths, -np.asarray(azimuths), 2 * sector - np.asarray(azimuths)])
-    span = _bite_span(bite, mirrored if wedge else azimuths, latitude)  # a wedge's mirror images count too
+    neighbours = np.concatenate([azimuths, -np.asarray(azimuths), 2 * sector - np.asarray(azimuths)]) if wedge \
+        else np.asarray(azimuths)  # a wedge's mirror images count too
     low, high = (body.azimuths[0], body.azimuths[-1]) if body.arc_deg < 360.0 else (0.0, sector) if wedge \
         else (None, None)  # a bite stays on the buckle and in the model
     sutures = []
     for phi in azimuths:
         share = 0.5 if wedge and not 1e-9 < phi < sector - 1e-9 else 1.0  # on a cut plane: half in the wedge
-        # the bite's middle in the range of its limits (a tire across azimuth 0)
-        spread = _spread(phi if low is None else low + (phi - low) % (2 * np.pi), span, latitude, low, high)
+        # the bite's middle taken to the range of its limits (a tire across azimuth 0)
+        middle = phi if low is None else 0.5 * (low + high) + float(np.angle(np.exp(1j * (phi - 0.5 * (low + high)))))
         for side, sign in zip(_SUTURE_SIDES, (-1, 1)):
             bite_theta, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
+            latitude = Ro * math.sin(bite_theta)  # the radius of the bite's circle of latitude
+            spread = _spread(middle, _bite_span(bite, neighbours, latitude), latitude, low, high)
             degrees = round(math.degrees(phi), 9)
             sutures.append({"name": f"suture_{degrees:g}_{side}", "azimuth_deg": degrees, "side": side,
                             "share": share, "sclera": tuple(_on_sphere(Ro, bite_theta, phi).tolist()),
@@ -182,7 +185,7 @@ def _spread(middle, half, radius, low=None, high=None) -> np.ndarray:
     ``BITE_SPACING`` long."""
     start, end = middle - half, middle + half
     start, end = (start if low is None else max(start, low)), (end if high is None else min(end, high))
-    pieces = max(1, math.ceil((end - start) * radius / BITE_SPACING))
+    pieces = max(1, math.ceil((end - start) * radius / BITE_SPACING - 1e-9))  # 3 mm: 30 pieces, not 31
     return start + (end - start) * (np.arange(pieces) + 0.5) / pieces
 
 
