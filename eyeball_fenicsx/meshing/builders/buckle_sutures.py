@@ -99,10 +99,7 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     wedge = sector < 2 * np.pi
     Ro, theta_c = layout.globe_radius, layout.centre_theta
     azimuths = _azimuths(layout, body, count, azimuth_deg)
-    neighbours = np.concatenate([azimuths, -np.asarray(azimuths), 2 * sector - np.asarray(azimuths)]) if wedge \
-        else np.asarray(azimuths)  # a wedge's mirror images count too
-    low, high = (body.azimuths[0], body.azimuths[-1]) if body.arc_deg < 360.0 else (0.0, sector) if wedge \
-        else (None, None)  # a bite stays on the buckle and in the model
+    neighbours, low, high = _bite_range(body, azimuths, sector)
     sutures = []
     for phi in azimuths:
         share = 0.5 if wedge and not 1e-9 < phi < sector - 1e-9 else 1.0  # on a cut plane: half in the wedge
@@ -166,6 +163,17 @@ def _edge(body: BuckleBody, direction: np.ndarray) -> dict:
             "hold": tuple((body.inner_radius * direction).tolist()),
             "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer",
             "hold_surface": f"{body.name}_inner"}
+
+
+def _bite_range(body: BuckleBody, azimuths, sector):
+    """The azimuths a bite must not overlap (a wedge's mirror images among them) and the range
+    [low, high] a bite stays in: the tire's arc, the wedge, or (None, None) on a whole ring."""
+    azimuths = np.asarray(azimuths)
+    wedge = sector < 2 * np.pi
+    neighbours = np.concatenate([azimuths, -azimuths, 2 * sector - azimuths]) if wedge else azimuths
+    low, high = (body.azimuths[0], body.azimuths[-1]) if body.arc_deg < 360.0 else (0.0, sector) if wedge \
+        else (None, None)
+    return neighbours, low, high
 
 
 def _bite_span(bite, angles, radius) -> float:
