@@ -104,7 +104,7 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     for phi in azimuths:
         share = 0.5 if wedge and not 1e-9 < phi < sector - 1e-9 else 1.0  # on a cut plane: half in the wedge
         # the bite's middle taken to the range of its limits (a tire across azimuth 0)
-        middle = phi if low is None else 0.5 * (low + high) + float(np.angle(np.exp(1j * (phi - 0.5 * (low + high)))))
+        middle = phi if low is None else _near(phi, 0.5 * (low + high))
         for side, sign in zip(_SUTURE_SIDES, (-1, 1)):
             bite_theta, edge = theta_c + sign * half, body.theta[1 if sign > 0 else 0]
             latitude = Ro * math.sin(bite_theta)  # the radius of the bite's circle of latitude
@@ -163,6 +163,11 @@ def _edge(body: BuckleBody, direction: np.ndarray) -> dict:
             "hold": tuple((body.inner_radius * direction).tolist()),
             "sclera_surface": "sclera_outer", "buckle_surface": f"{body.name}_outer",
             "hold_surface": f"{body.name}_inner"}
+
+
+def _near(angle, centre) -> float:
+    """The angle (rad) equal to ``angle`` modulo 2 pi that lies within pi of ``centre``."""
+    return centre + float(np.angle(np.exp(1j * (angle - centre))))
 
 
 def _bite_range(body: BuckleBody, azimuths, sector):
@@ -228,8 +233,8 @@ def _azimuths(layout: BuckleLayout, body: BuckleBody, count, azimuth_deg):
         phi = 0.0 if phi > 2 * np.pi - 1e-9 else float(phi)
         if sector < 2 * np.pi and not phi <= sector + 1e-9:
             continue  # in the mirror image of the wedge
-        off_middle = abs(np.angle(np.exp(1j * (phi - math.radians(body.azimuth_deg)))))
-        if body.arc_deg < 360.0 and off_middle > math.radians(body.arc_deg) / 2 + 1e-9:
+        middle = math.radians(body.azimuth_deg)
+        if body.arc_deg < 360.0 and abs(_near(phi, middle) - middle) > math.radians(body.arc_deg) / 2 + 1e-9:
             raise SceneError(f"buckled_eye: no suture at azimuth {math.degrees(phi):.1f} deg, outside the tire")
         if all(abs(phi - other) > 1e-9 for other in azimuths):
             azimuths.append(phi)
