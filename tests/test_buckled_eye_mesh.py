@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.builders.buckle_sutures import BITE_LENGTH, BITE_SPACING
+from eyeball_fenicsx.meshing.builders.eye_meridian import FINE_SPACING, GRADING, SPACING
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 
@@ -446,3 +447,39 @@ def test_sutures_spread_symmetrically_over_a_tire():
     sutures = buckled_eye.suture_points({"n_circ": 40, "sector_deg": 360.0, "tire": tire}, count=4)
     azimuths = sorted({s["azimuth_deg"] for s in sutures})
     assert azimuths == pytest.approx([22.5, 37.5, 52.5, 67.5], abs=1e-9)
+
+
+def test_the_eye_is_graded_around_a_tires_sutures():
+    """A segmental tire held in by its sutures alone: the eye is graded at the tire's edges (4 mm
+    wide on its inner surface, radius R_o + gap: 2 R_o / (R_o + gap) mm either side of the centre
+    line, 12.5 mm behind the limbus, on the sclera) and at the sutures' bites, SUTURE_MARGIN beyond
+    them. Each is on a column of nodes; near them each element is as long as the spacing
+    FINE_SPACING + GRADING * (distance to the nearest) at its middle (over ``refine``) to 15 %, and
+    refine 2 halves every element. An encircling band (its tightening pushes the buckle in) and a
+    radial sponge (its bites run along the meridian) are not graded unless asked, and the sponge
+    cannot be."""
+    lines = buckled_eye.suture_grading(SEGMENTAL)
+    layout = buckled_eye.buckle_layout(**SEGMENTAL)
+    ro, margin = layout.globe_radius, buckled_eye.SUTURE_MARGIN
+    half = 2.0 * ro / (ro + GAP)
+    assert lines == pytest.approx([12.5 - half - margin, 12.5 - half, 12.5 + half, 12.5 + half + margin], abs=1e-12)
+    columns = {}
+    for refine in (1, 2):
+        _, meridian = eye.checked_parameters({**layout.eye, "graded_at": lines, "refine": refine})
+        behind = meridian.s_l - meridian.columns
+        columns[refine] = behind
+        assert all(np.min(np.abs(behind - line)) < 1e-9 for line in lines)
+        middle, length = 0.5 * (behind[1:] + behind[:-1]), -np.diff(behind)
+        spacing = np.minimum(SPACING, FINE_SPACING + GRADING * np.min(np.abs(middle[:, None] - lines), axis=1))
+        near = spacing < SPACING
+        assert np.all(np.abs(length[near] * refine / spacing[near] - 1.0) < 0.15)
+    assert all(np.min(np.abs(columns[2] - column)) < 1e-9 for column in columns[1])
+    assert len(columns[2]) - 1 == 2 * (len(columns[1]) - 1)
+    mesh, _ = buckled_eye.buckled_eye_geometry(**SEGMENTAL, graded_at=list(lines))
+    assert mesh.info["min_scaled_jacobian"] > eye.MIN_SCALED_JACOBIAN
+    sponge = {"n_circ": N_CIRC, "sector_deg": 360.0, "sponge": {"azimuth_deg": 45.0}}
+    assert buckled_eye.suture_grading(ENCIRCLED) == buckled_eye.suture_grading(TIRED) == ()
+    assert buckled_eye.suture_grading(sponge) == ()
+    assert len(buckled_eye.suture_grading(TIRED, graded=True)) == 4
+    with pytest.raises(SceneError, match="radial sponge's bites run along it"):
+        buckled_eye.suture_grading(sponge, graded=True)

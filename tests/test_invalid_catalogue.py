@@ -322,6 +322,19 @@ CASES = {
     "buckle-sutures-outside-the-tire": (tire("{ arc_deg = 90.0 }") + "[buckle_sutures]\nazimuths = [180.0]\n"
                                         "tension = 0.1\n",
                                         ["[buckle_sutures]", "no suture at azimuth 180.0 deg, outside the tire"]),
+    # the grading of the buckled eye around its sutures ([mesh] graded) and of any eye ([mesh] graded_at)
+    "graded-without-buckle-sutures": (tire("{ arc_deg = 90.0 }", "graded = true\n"),
+                                      ["[mesh]", "graded refines the eye around the sutures' bites",
+                                       "[buckle_sutures]"]),
+    "graded-not-a-flag": (tire("{ arc_deg = 90.0 }", 'graded = "yes"\n') + "[buckle_sutures]\ntension = 0.1\n",
+                          ["[mesh]", "graded must be true or false, got 'yes'"]),
+    "graded-sponge": (sponge("{ azimuth_deg = 45.0 }", "sector_deg = 360\nn_circ = 16\ngraded = true\n")
+                      + "[buckle_sutures]\ntension = 0.1\n",
+                      ["[buckle_sutures]", "a radial sponge's bites run along it"]),
+    "graded-at-off-the-sclera": (eye("graded_at = [12.5, 40.0]\n" + SMALL_EYE),
+                                 ["[mesh]", "graded_at 40.0 mm behind the limbus is off the sclera"]),
+    "graded-at-not-a-list": (eye("graded_at = 12.5\n" + SMALL_EYE),
+                             ["[mesh]", "graded_at must be a list of distances behind the limbus (mm), got 12.5"]),
     # the buckled eye's radial sponge
     "sponge-in-a-wedge": (sponge("{ azimuth_deg = 45.0 }", "sector_deg = 180\n"),
                           ["[mesh]", "a radial sponge needs the whole eye (sector_deg = 360)", "180"]),

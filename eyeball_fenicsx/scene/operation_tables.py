@@ -13,7 +13,7 @@ from ..errors import SceneError
 from ..features.band import BandTightening
 from ..features.cavity import Drainage, Injection, LiquidCavity
 from ..features.sutures import Suture
-from ..meshing.builders.buckled_eye import suture_points
+from ..meshing.builders.buckled_eye import suture_grading, suture_points
 from ..output.eye_pictures import EyePictures
 from ..output.measures import EyeMeasures
 from .tables import Reading, Table
@@ -115,7 +115,8 @@ def read_buckle_sutures(reading: Reading) -> None:
         raise t.error('needs [mesh] builder = "buckled_eye" (the sutures follow its buckle)')
     if t.has("tension") == t.has("shortening"):
         raise t.error("give exactly one of tension or shortening")
-    parameters = {k: v for k, v in mesh.items() if k != "builder"}
+    graded = Table(mesh, f"{reading.path}: [mesh]", set(mesh)).get("graded", "flag")
+    parameters = {k: v for k, v in mesh.items() if k not in ("builder", "graded")}
     where = {"count": t.get("count", "integer", 4), "suture_width": t.get("width", "positive"),
              "azimuth_deg": t.get("azimuths", "numbers")}
     if t.has("bite"):
@@ -124,6 +125,7 @@ def read_buckle_sutures(reading: Reading) -> None:
             "stiffness": t.get("stiffness", "positive"), "bilateral": True, "step": reading.step_of(t)}
     with t.located((SceneError, TypeError)):  # the buckle's own checks (and those of [mesh])
         points = suture_points(parameters, **where)
+        reading.graded_at = suture_grading(parameters, where["suture_width"], graded)
     for point in points:
         if point["name"] in reading.sutures:
             raise t.error(f"suture name {point['name']!r} is used twice: rename the [[suture]]")

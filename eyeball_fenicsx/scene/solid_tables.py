@@ -159,6 +159,13 @@ def read_mesh(reading: Reading) -> None:
             f"mesh = {mesh!r} is not a table"
         raise SceneError(f"{reading.path}: {given}: give [mesh] file = \"<mesh>.msh\" (relative to the scene file) "
                          "or [mesh] builder = ...")
+    if "graded" in mesh:  # the sutures' grading (read by [buckle_sutures]), not the builder's
+        if reading.graded_at is None:
+            raise SceneError(f"{reading.path}: [mesh]: graded refines the eye around the sutures' bites: it needs "
+                             "[buckle_sutures]")
+        mesh = {k: v for k, v in mesh.items() if k != "graded"}
+    if reading.graded_at and "graded_at" not in mesh:
+        mesh = {**mesh, "graded_at": list(reading.graded_at)}
     table = Table(mesh, f"{reading.path}: [mesh]", set(mesh))  # keys are checked per mesh source
     reading.mesh = mesh_table(table, os.path.dirname(os.path.abspath(reading.path)), reading.comm)
     cells = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}[reading.mesh.mesh.ufl_cell().cellname()]

@@ -35,6 +35,14 @@ not exactly, half of the whole eye (no shipped scene has one). ``BITE_LENGTH`` =
 is our choice, not a published figure: we found none in the sources we could read; a scene sets its
 own (``[buckle_sutures] bite``; 0 ties each end at its point, for comparison).
 
+The sclera between a bite and the buckle's edge, 1 mm wide with the usual margin, bends as the
+sutures pull the buckle in, and an eye with the usual 0.8 mm elements along the meridian is too
+stiff there: it overstated a segmental tire's indentation by about 45 % (README, "The eye graded
+around the sutures"). So where the sutures alone push the buckle in (a tire without an encircling
+band; with a band, the band's tightening does), the eye is graded along the meridian at the edges
+of the body on the sclera and at the bites' circles of latitude
+(:func:`suture_grading`, the eye's ``graded_at``; ``[mesh] graded`` in a scene).
+
 In a wedge model a suture on a cut plane is kept with ``share`` 1/2 (its mirror image holds the
 other half): dropping it can leave the buckle with a single suture azimuth, whose two strings meet
 the buckle in one meridian and leave it free to slide along the sclera before contact holds it (a
@@ -116,6 +124,34 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
                             "sclera_bite": _on_sphere(Ro, bite_theta, spread).tolist(),
                             "buckle_bite": _on_sphere(body.outer_radius, edge, spread).tolist()})
     return sutures
+
+
+def suture_grading(parameters: dict | None = None, suture_width: float | None = None,
+                   graded: bool | None = None) -> tuple[float, ...]:
+    """The circles of latitude the eye's mesh is graded at for the sutures (``graded_at`` of
+    :func:`eye.build_eye`, mm behind the limbus): the edges of the body on the sclera and the
+    sutures' bites (the module docstring says why).
+
+    Args:
+        parameters, suture_width: as :func:`suture_points`.
+        graded: grade the mesh; by default, when the sutures alone push the buckle in: a tire
+            without an encircling band (a band's tightening does it with a band).
+
+    Raises:
+        SceneError: if ``graded`` is asked for a radial sponge, whose sutures run along the meridian.
+    """
+    layout = buckle_layout(**(parameters or {}))
+    body = next(iter(layout.bodies.values()))  # the bodies run from the sclera outward
+    if graded is None:
+        graded = "band" not in layout.bodies and not body.radial
+    if not graded:
+        return ()
+    if body.radial:
+        raise SceneError("buckled_eye: graded refines the eye along the meridian, across a tire or band; a radial "
+                         "sponge's bites run along it")
+    half = _half_width(layout, suture_width)
+    thetas = (*body.theta, layout.centre_theta - half, layout.centre_theta + half)
+    return tuple(sorted(layout.limbus_arc - layout.globe_radius * theta for theta in thetas))
 
 
 def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width, bite):

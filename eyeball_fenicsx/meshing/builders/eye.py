@@ -33,6 +33,7 @@ import inspect
 import math
 import numbers
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -119,7 +120,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
                  cornea_thickness: float = 0.53, choroid_thickness: float = 0.25, retina_thickness: float = 0.25,
                  optic_nerve_diameter: float = 3.5, optic_nerve_length: float = 3.0, detachment: dict | None = None,
                  refine: int = 1, n_circ: int | None = None, sector_deg: float = 360.0,
-                 wall_layers: int = 1) -> EyeMesh:
+                 wall_layers: int = 1, graded_at: Sequence[float] = ()) -> EyeMesh:
     """The eye mesh as numpy arrays (see :func:`build_eye` for the parameters).
 
     Returns:
@@ -251,6 +252,10 @@ def build_eye(**parameters) -> dict:
             ``n_circ`` gives a fine eye whose wall elements keep their shape.
         sector_deg: 360 (whole eye), 180 or 90 (a wedge with the cut planes "cut_0" at azimuth 0
             and "cut_1" at ``sector_deg``, for models symmetric about them).
+        graded_at: circles of latitude, each given by its distance behind the limbus along the
+            sclera (mm), around which the elements along the meridian are finer: 0.1 mm long on
+            the circle, longer by 0.5 mm per mm away, up to the usual 0.8 (over ``refine``;
+            eye_meridian.py). buckled_eye.py grades at a buckle's edges and its sutures' bites.
 
     Returns:
         The mesh statistics (:attr:`EyeMesh.info`).

@@ -48,6 +48,12 @@ sclera thins from the pole to the equator as cos^2 of the polar angle and thicke
 limbus; the cornea thickens quadratically in its own polar angle from its central thickness to the
 limbal sclera's. Blends are ``smoothstep`` = sin^2(pi x / 2), C1 with zero slope at both ends.
 
+Along the meridian the shell's columns of nodes are ``SPACING`` apart (over ``refine``), but around
+the circles of latitude ``graded_at`` (mm behind the limbus along the sclera, as a buckle's
+position), each of which is on a column: there the elements are ``FINE_SPACING`` long, and longer
+by ``GRADING`` per mm away from the nearest such circle. A buckle's edge and its sutures' bites,
+1 mm apart, bend the sclera between them (buckle_sutures.py says how much this matters).
+
 Sources of the anatomy (beside each constant): the Le Grand full theoretical eye (Atchison &
 Smith, Optics of the Human Eye, 2000, appendix A); Rosen et al., Vision Res. 46:1002, 2006 (the
 lens diameter); Rüfer et al., Cornea 24:259, 2005 (the limbus); Hogan, Alvarado & Weddell,
@@ -58,6 +64,7 @@ import math
 
 import numpy as np
 
+from ...checks import is_number
 from ...errors import SceneError
 
 # --- anatomy (mm) -----------------------------------------------------------------------------
@@ -94,6 +101,8 @@ LIMBUS_BLEND = 0.8  # half-width over which the shell's lines turn from the scle
 
 # --- mesh sizes at refine = 1 ---------------------------------------------------------------
 SPACING = 0.8       # meridional element size along the shell (mm)
+FINE_SPACING = 0.1  # ... at a graded line (mm)
+GRADING = 0.5       # growth of the meridional element size per mm away from a graded line
 CORNEA_CORE = 1.3   # radius (arc length) of the corneal butterfly core (mm)
 LENS_CORE = 1.2     # radius of the lens butterfly core (mm)
 CORE_SQUARE = 0.5   # half-side of the core square / core radius
@@ -160,7 +169,19 @@ class Meridian:
             np.linspace(0.0, p["choroid_thickness"], CHOROID_LAYERS * r + 1),
             np.linspace(p["choroid_thickness"], p["choroid_thickness"] + p["retina_thickness"],
                         RETINA_LAYERS * r + 1)[1:]]) / (p["choroid_thickness"] + p["retina_thickness"])
+        self.graded = self._graded_lines(p["graded_at"])
         self.columns = self._columns()
+
+    def _graded_lines(self, graded_at):
+        """The meridian's parameters s of the circles of latitude ``graded_at`` (mm behind the limbus
+        along the sclera), sorted and checked to lie on the sclera."""
+        if not (isinstance(graded_at, (list, tuple)) and all(is_number(x) for x in graded_at)):
+            raise SceneError(f"eye: graded_at must be a list of distances behind the limbus (mm), got {graded_at!r}")
+        for behind in graded_at:
+            if not 0.0 < behind < self.s_l - self.s_nerve:
+                raise SceneError(f"eye: graded_at {behind} mm behind the limbus is off the sclera (0 to "
+                                 f"{self.s_l - self.s_nerve:.1f} mm, the optic nerve's edge)")
+        return np.sort(self.s_l - np.asarray(graded_at, dtype=float))
 
     def _place_lens(self, corneal_sag):
         """The lens's poles and anterior radius (Le Grand's lens): its anterior pole at the aqueous depth
@@ -246,16 +267,43 @@ class Meridian:
         back = self.z_lens_back + (LENS_POSTERIOR_RADIUS - np.sqrt(LENS_POSTERIOR_RADIUS**2 - rho**2))
         return np.stack([rho, back + j / (LENS_LAYERS * self.p["refine"]) * (front - back)], axis=-1)
 
-    def _length(self, start, stop):
-        """Length of the outer surface between the parameters start and stop (by the trapezoidal rule
-        on 200 intervals): stop - start but behind the equator of an elongated eye, where the
-        length element is sqrt(r^2 + r'^2) dtheta."""
-        s = np.linspace(start, stop, 201)
+    def _stretch(self, s):
+        """The outer surface's length per unit of the parameter s: 1 but behind the equator of an
+        elongated eye, where the length element is sqrt(r^2 + r'^2) dtheta."""
         theta = np.minimum(s, self.s_l) / self.Ro
         r = self.radius(theta)
         slope = -self.elongation * np.where(theta < np.pi / 2, np.sin(2 * theta), 0.0)
-        factor = np.where(s <= self.s_l, np.sqrt(r**2 + slope**2) / self.Ro, 1.0)
+        return np.where(s <= self.s_l, np.sqrt(r**2 + slope**2) / self.Ro, 1.0)
+
+    def _length(self, start, stop):
+        """Length of the outer surface between the parameters start and stop (by the trapezoidal rule
+        on 200 intervals)."""
+        s = np.linspace(start, stop, 201)
+        factor = self._stretch(s)
         return float(np.sum((factor[1:] + factor[:-1]) / 2 * np.diff(s)))
+
+    def spacing(self, s):
+        """The element length along the meridian at s, at refine = 1: ``SPACING``, but ``FINE_SPACING``
+        at a graded line, growing by ``GRADING`` per mm away from the nearest."""
+        s = np.asarray(s, dtype=float)
+        if not len(self.graded):
+            return np.full_like(s, SPACING)
+        distance = np.min(np.abs(s[..., None] - self.graded), axis=-1)
+        return np.minimum(SPACING, FINE_SPACING + GRADING * distance)
+
+    def _graded_columns(self, start, stop):
+        """The columns of (start, stop], about ``spacing`` (over ``refine``) apart: the graded lines
+        inside are columns, and each piece between them is divided where equal steps of the
+        integral of stretch / spacing fall."""
+        ends = self.graded[(self.graded > start + FINE_SPACING / 2) & (self.graded < stop - FINE_SPACING / 2)]
+        columns = []
+        for a, b in zip([start, *ends], [*ends, stop]):
+            s = np.linspace(a, b, 401)
+            density = self._stretch(s) / self.spacing(s)
+            steps = np.concatenate([[0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(s))])
+            count = max(1, round(steps[-1])) * self.p["refine"]
+            columns.append(np.interp(np.linspace(0.0, steps[-1], count + 1)[1:], steps, s))
+        return np.concatenate(columns)
 
     def _columns(self):
         """Arc lengths of the revolved columns of the shell, from the nerve core to the corneal core."""
@@ -267,6 +315,9 @@ class Meridian:
         for (start, _), (stop, count) in zip(stops, stops[1:]):
             if stop <= start + 0.1:
                 raise SceneError("eye: the anatomy does not fit: check axial_length and the thicknesses")
+            if count is None and np.min(self.spacing(np.linspace(start, stop, 401))) < SPACING:
+                columns.append(self._graded_columns(start, stop))
+                continue
             count = count or max(1, round(self._length(start, stop) / SPACING)) * r
             columns.append(np.linspace(start, stop, count + 1)[1:])
         columns = np.concatenate(columns)
