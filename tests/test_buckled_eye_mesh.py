@@ -19,9 +19,10 @@ from scipy.spatial import cKDTree
 from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.builders.buckle_sutures import BITE_LENGTH, BITE_SPACING
-from eyeball_fenicsx.meshing.builders.eye_meridian import FINE_SPACING, GRADING, SPACING
+from eyeball_fenicsx.meshing.builders.eye_meridian import SPACING
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
+from eyeball_fenicsx.scene.loader import load_scene
 
 COMM = MPI.COMM_WORLD
 N_CIRC = 16
@@ -453,11 +454,12 @@ def test_the_eye_is_graded_around_a_tires_sutures():
     """A segmental tire held in by its sutures alone: the eye is graded at the tire's edges (4 mm
     wide on its inner surface, radius R_o + gap: 2 R_o / (R_o + gap) mm either side of the centre
     line, 12.5 mm behind the limbus, on the sclera) and at the sutures' bites, SUTURE_MARGIN beyond
-    them. Each is on a column of nodes; near them each element is as long as the spacing
-    FINE_SPACING + GRADING * (distance to the nearest) at its middle (over ``refine``) to 15 %, and
-    refine 2 halves every element. An encircling band (its tightening pushes the buckle in) and a
-    radial sponge (its bites run along the meridian) are not graded unless asked, and the sponge
-    cannot be."""
+    them. Each is on a column of nodes, the elements either side of it 0.10-0.15 mm long (the
+    README's "about 0.13": the spacing 0.1 mm at the circle, 0.5 mm longer per mm away), each
+    element near them as long as the meridian's spacing at its middle to 15 % and at most 1.7 times
+    its neighbour; refine 2 halves every element. An encircling band (its tightening pushes the
+    buckle in) and a radial sponge (its bites run along the meridian) are not graded unless asked,
+    and the sponge cannot be."""
     lines = buckled_eye.suture_grading(SEGMENTAL)
     layout = buckled_eye.buckle_layout(**SEGMENTAL)
     ro, margin = layout.globe_radius, buckled_eye.SUTURE_MARGIN
@@ -468,11 +470,16 @@ def test_the_eye_is_graded_around_a_tires_sutures():
         _, meridian = eye.checked_parameters({**layout.eye, "graded_at": lines, "refine": refine})
         behind = meridian.s_l - meridian.columns
         columns[refine] = behind
-        assert all(np.min(np.abs(behind - line)) < 1e-9 for line in lines)
-        middle, length = 0.5 * (behind[1:] + behind[:-1]), -np.diff(behind)
-        spacing = np.minimum(SPACING, FINE_SPACING + GRADING * np.min(np.abs(middle[:, None] - lines), axis=1))
-        near = spacing < SPACING
-        assert np.all(np.abs(length[near] * refine / spacing[near] - 1.0) < 0.15)
+        length = -np.diff(behind)
+        for line in lines:
+            at = int(np.argmin(np.abs(behind - line)))
+            assert abs(behind[at] - line) < 1e-9
+            assert np.all((0.10 / refine <= length[at - 1:at + 1]) & (length[at - 1:at + 1] <= 0.15 / refine))
+        spacing = meridian.spacing(meridian.s_l - 0.5 * (behind[1:] + behind[:-1])) / refine
+        near = np.flatnonzero(spacing < SPACING / refine)
+        assert np.all(np.abs(length[near] / spacing[near] - 1.0) < 0.15)
+        ratio = length[near[0]:near[-1] + 1][1:] / length[near[0]:near[-1] + 1][:-1]
+        assert np.all((1 / 1.7 < ratio) & (ratio < 1.7))
     assert all(np.min(np.abs(columns[2] - column)) < 1e-9 for column in columns[1])
     assert len(columns[2]) - 1 == 2 * (len(columns[1]) - 1)
     mesh, _ = buckled_eye.buckled_eye_geometry(**SEGMENTAL, graded_at=list(lines))
@@ -483,3 +490,28 @@ def test_the_eye_is_graded_around_a_tires_sutures():
     assert len(buckled_eye.suture_grading(TIRED, graded=True)) == 4
     with pytest.raises(SceneError, match="radial sponge's bites run along it"):
         buckled_eye.suture_grading(sponge, graded=True)
+
+
+def test_circles_closer_than_the_fine_spacing_share_a_column():
+    """Two circles on one another, or 0.02 mm apart (a suture width just above the tire's
+    footprint), give one column, not an element of no length: the eye builds, its worst corner
+    as the single circle's."""
+    single, _ = buckled_eye.buckled_eye_geometry(**SEGMENTAL, graded_at=[12.5])
+    for close in ([12.5, 12.5], [12.5, 12.52]):
+        mesh, _ = buckled_eye.buckled_eye_geometry(**SEGMENTAL, graded_at=close)
+        assert mesh.info["hexahedra"] == single.info["hexahedra"]
+        assert mesh.info["min_scaled_jacobian"] == pytest.approx(single.info["min_scaled_jacobian"], abs=0.05)
+
+
+def test_a_scene_grades_the_eye_of_its_sutured_tire(tmp_path):
+    """Read from a scene: a segmental tire with [buckle_sutures] builds the eye graded at the circles
+    of suture_grading (by default), uniform with ``[mesh] graded = false``."""
+    scene = ('name = "graded"\ntissues = "seed"\n[mesh]\nbuilder = "buckled_eye"\nn_circ = 16\n'
+             'tire = { width = 4.0, height = 1.0, arc_deg = 90.0, azimuth_deg = 30.0 }\n{graded}'
+             '[materials.tire]\nmodel = "neo-hooke"\nc10 = 0.41\n[[step]]\nname = "suture"\n'
+             '[buckle_sutures]\ntension = 0.01\n')
+    for graded, expected in (("", list(buckled_eye.suture_grading(SEGMENTAL))), ("graded = false\n", None)):
+        path = tmp_path / f"scene{COMM.rank}{len(graded)}.toml"
+        path.write_text(scene.replace("{graded}", graded))
+        parameters = load_scene(str(path)).mesh.parameters
+        assert parameters.get("graded_at") == (pytest.approx(expected, abs=1e-12) if expected else None)

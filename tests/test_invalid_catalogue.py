@@ -332,7 +332,9 @@ CASES = {
                       + "[buckle_sutures]\ntension = 0.1\n",
                       ["[buckle_sutures]", "a radial sponge's bites run along it"]),
     "graded-at-off-the-sclera": (eye("graded_at = [12.5, 40.0]\n" + SMALL_EYE),
-                                 ["[mesh]", "graded_at 40.0 mm behind the limbus is off the sclera"]),
+                                 ["[mesh]", "graded_at 40.0 mm behind the limbus is off the sclera that can be"]),
+    "graded-at-the-zonule": (eye("graded_at = [2.0]\n" + SMALL_EYE),
+                             ["[mesh]", "graded_at 2.0 mm", "where the zonule meets the ciliary body"]),
     "graded-at-not-a-list": (eye("graded_at = 12.5\n" + SMALL_EYE),
                              ["[mesh]", "graded_at must be a list of distances behind the limbus (mm), got 12.5"]),
     # the buckled eye's radial sponge

@@ -164,8 +164,9 @@ def read_mesh(reading: Reading) -> None:
             raise SceneError(f"{reading.path}: [mesh]: graded refines the eye around the sutures' bites: it needs "
                              "[buckle_sutures]")
         mesh = {k: v for k, v in mesh.items() if k != "graded"}
-    if reading.graded_at and "graded_at" not in mesh:
-        mesh = {**mesh, "graded_at": list(reading.graded_at)}
+    if reading.graded_at:  # with the scene's own circles, if it gives them
+        given = mesh.get("graded_at", [])
+        mesh = {**mesh, "graded_at": [*given, *reading.graded_at] if isinstance(given, list) else given}
     table = Table(mesh, f"{reading.path}: [mesh]", set(mesh))  # keys are checked per mesh source
     reading.mesh = mesh_table(table, os.path.dirname(os.path.abspath(reading.path)), reading.comm)
     cells = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}[reading.mesh.mesh.ufl_cell().cellname()]

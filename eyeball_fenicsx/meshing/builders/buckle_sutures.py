@@ -141,7 +141,7 @@ def suture_grading(parameters: dict | None = None, suture_width: float | None = 
         SceneError: if ``graded`` is asked for a radial sponge, whose sutures run along the meridian.
     """
     layout = buckle_layout(**(parameters or {}))
-    body = next(iter(layout.bodies.values()))  # the bodies run from the sclera outward
+    body = layout.bodies[layout.sutured]  # the body on the sclera
     if graded is None:
         graded = "band" not in layout.bodies and not body.radial
     if not graded:

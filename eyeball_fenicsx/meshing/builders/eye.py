@@ -140,7 +140,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
     if detachment is not None:
         nodes, hexes = detach(nodes, hexes, regions, m, detachment, p["sector_deg"])
     _, scaled = corner_jacobians(nodes, hexes)
-    if scaled.min() < MIN_SCALED_JACOBIAN:
+    if not scaled.min() >= MIN_SCALED_JACOBIAN:  # a collapsed edge gives NaN
         raise SceneError(f"eye: the mesh has a corner with scaled Jacobian {scaled.min():.3f} < {MIN_SCALED_JACOBIAN} "
                          f"({_distortion_cause(p, detachment)})")
     surfaces = name_surfaces(nodes, hexes, regions, m, p["sector_deg"])
@@ -253,9 +253,12 @@ def build_eye(**parameters) -> dict:
         sector_deg: 360 (whole eye), 180 or 90 (a wedge with the cut planes "cut_0" at azimuth 0
             and "cut_1" at ``sector_deg``, for models symmetric about them).
         graded_at: circles of latitude, each given by its distance behind the limbus along the
-            sclera (mm), around which the elements along the meridian are finer: 0.1 mm long on
-            the circle, longer by 0.5 mm per mm away, up to the usual 0.8 (over ``refine``;
-            eye_meridian.py). buckled_eye.py grades at a buckle's edges and its sutures' bites.
+            sclera (mm, as a buckle's ``band_position``), more than 3 mm behind it (where the
+            zonule meets the ciliary body the columns are fixed) and in front of the optic nerve's
+            edge, around which the elements along the meridian are finer: the spacing is 0.1 mm at
+            a circle (its neighbouring elements about 0.13 mm long) and 0.5 mm longer per mm away,
+            up to the usual 0.8 (over ``refine``; eye_meridian.py). A scene's ``[buckle_sutures]``
+            grades at a tire's edges and its sutures' bites (buckle_sutures.suture_grading).
 
     Returns:
         The mesh statistics (:attr:`EyeMesh.info`).

@@ -50,8 +50,10 @@ limbal sclera's. Blends are ``smoothstep`` = sin^2(pi x / 2), C1 with zero slope
 
 Along the meridian the shell's columns of nodes are ``SPACING`` apart (over ``refine``), but around
 the circles of latitude ``graded_at`` (mm behind the limbus along the sclera, as a buckle's
-position), each of which is on a column: there the elements are ``FINE_SPACING`` long, and longer
-by ``GRADING`` per mm away from the nearest such circle. A buckle's edge and its sutures' bites,
+position), each on a column (or within ``FINE_SPACING`` / 2 of one, where two circles, or a circle
+and a tissue's edge, are closer): there the spacing is ``FINE_SPACING``, and longer by ``GRADING``
+per mm away from the nearest such circle (the elements either side of a circle are about 0.13 mm
+long). A buckle's edge and its sutures' bites,
 1 mm apart, bend the sclera between them (buckle_sutures.py says how much this matters).
 
 Sources of the anatomy (beside each constant): the Le Grand full theoretical eye (Atchison &
@@ -175,12 +177,13 @@ class Meridian:
     def _graded_lines(self, graded_at):
         """The meridian's parameters s of the circles of latitude ``graded_at`` (mm behind the limbus
         along the sclera), sorted and checked to lie on the sclera."""
-        if not (isinstance(graded_at, (list, tuple)) and all(is_number(x) for x in graded_at)):
+        if not (isinstance(graded_at, (list, tuple, np.ndarray)) and all(is_number(x) for x in graded_at)):
             raise SceneError(f"eye: graded_at must be a list of distances behind the limbus (mm), got {graded_at!r}")
         for behind in graded_at:
-            if not 0.0 < behind < self.s_l - self.s_nerve:
-                raise SceneError(f"eye: graded_at {behind} mm behind the limbus is off the sclera (0 to "
-                                 f"{self.s_l - self.s_nerve:.1f} mm, the optic nerve's edge)")
+            if not ZONULE_POSTERIOR_TO_LIMBUS < behind < self.s_l - self.s_nerve:
+                raise SceneError(f"eye: graded_at {behind} mm behind the limbus is off the sclera that can be graded "
+                                 f"({ZONULE_POSTERIOR_TO_LIMBUS:g} to {self.s_l - self.s_nerve:.1f} mm: from where the "
+                                 "zonule meets the ciliary body to the optic nerve's edge)")
         return np.sort(self.s_l - np.asarray(graded_at, dtype=float))
 
     def _place_lens(self, corneal_sag):
@@ -293,9 +296,12 @@ class Meridian:
 
     def _graded_columns(self, start, stop):
         """The columns of (start, stop], about ``spacing`` (over ``refine``) apart: the graded lines
-        inside are columns, and each piece between them is divided where equal steps of the
-        integral of stretch / spacing fall."""
-        ends = self.graded[(self.graded > start + FINE_SPACING / 2) & (self.graded < stop - FINE_SPACING / 2)]
+        inside are columns (but one within FINE_SPACING / 2 of the last or of ``stop``), and each
+        piece between them is divided where equal steps of the integral of stretch / spacing fall."""
+        ends = []
+        for line in self.graded:
+            if (ends[-1] if ends else start) + FINE_SPACING / 2 < line < stop - FINE_SPACING / 2:
+                ends.append(line)
         columns = []
         for a, b in zip([start, *ends], [*ends, stop]):
             s = np.linspace(a, b, 401)
