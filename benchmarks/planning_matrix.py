@@ -13,7 +13,9 @@ demos/segmental_buckle.toml, with one surgical parameter changed and nothing els
   into the cavity "vitreous" (the half model's half of 0.2 mL; README.md, "Contact, sutures, bands");
 * the segmental tire's sutures tied by 0.1 to 1.0 mm (``buckle_sutures.shortening``; 0.4);
 * the tire's height, 0.5 and 2 mm (``mesh.tire.height``; 1), and its arc, 30 and 90 degrees
-  (``mesh.tire.arc_deg``; 60).
+  (``mesh.tire.arc_deg``; 60);
+* its sutures tied by a tension of 0.04 N each instead of a shortening (``buckle_sutures.tension``
+  for ``shortening``).
 
 Every variant runs under MPI on the default eye (``--n-circ 40``) with the scene's own solver
 settings, as shipped: the script adds no solver option. ``--strip-knobs`` removes what a scene
@@ -67,6 +69,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 SCENES = {"encircling": os.path.join(HERE, "..", "demos", "encircling_buckle_seed.toml"),
           "segmental": os.path.join(HERE, "..", "demos", "segmental_buckle.toml")}
 DRAINED_MM3 = 100.0  # from the half model's vitreous: 0.2 mL from the whole eye
+SUTURE_TENSION_N = 0.04  # N per suture: about what a 0.4 mm shortening of segmental-0.4's sutures pulls with
 PREDICTIONS = {"buckle_height_mm": ("buckle height (mm)", "{:.3f}"),
                "axial_length_change_mm": ("axial length change (mm)", "{:.3f}"),
                "iop_mmHg": ("IOP (mmHg)", "{:.1f}"),
@@ -80,12 +83,14 @@ CHECKS = {"reduction": ("buckle_height_mm", "axial_length_change_mm", "iop_mmHg"
 @dataclasses.dataclass
 class Variant:
     """One scene with surgical parameters changed: ``changes`` are {dotted path: value}
-    (``scene.overrides.set_parameter``); ``drain_mm3`` adds the drainage step."""
+    (``scene.overrides.set_parameter``); ``drain_mm3`` adds the drainage step; ``tension_n`` ties
+    the buckle's sutures by that tension (N each) instead of their shortening."""
 
     name: str
     scene: str
     changes: dict = dataclasses.field(default_factory=dict)
     drain_mm3: float = None
+    tension_n: float = None
     series: str = None  # "reduction" or "shortening": the variant is a point of that check
     value: float = None
 
@@ -102,6 +107,7 @@ def variants():
                        value=mm) for mm in (0.1, 0.4, 0.8, 1.0)]
     matrix += [Variant(f"tire-height-{mm:g}", "segmental", {"mesh.tire.height": mm}) for mm in (0.5, 2.0)]
     matrix += [Variant(f"tire-arc-{deg:g}", "segmental", {"mesh.tire.arc_deg": deg}) for deg in (30.0, 90.0)]
+    matrix += [Variant(f"segmental-tension-{SUTURE_TENSION_N:g}", "segmental", tension_n=SUTURE_TENSION_N)]
     return matrix
 
 
@@ -140,10 +146,15 @@ def scene_data(variant, base, n_circ):
     if variant.drain_mm3:
         data["step"].append({"name": "drain"})
         data.setdefault("injection", []).append({"cavity": "vitreous", "volume": -variant.drain_mm3, "step": "drain"})
+    if variant.tension_n:
+        del data["buckle_sutures"]["shortening"]
+        data["buckle_sutures"]["tension"] = variant.tension_n
     if data == base:  # the shipped value
         changed = "as shipped"
     elif variant.drain_mm3:
         changed = f"drain step: {-variant.drain_mm3:g} mm^3 from the vitreous"
+    elif variant.tension_n:
+        changed = f"buckle_sutures.tension = {variant.tension_n:g} N, not shortening"
     else:
         changed = ", ".join(described(variant.changes))
     set_parameter(data, "mesh.n_circ", n_circ)

@@ -140,6 +140,33 @@ def test_bilateral_sutures_also_push(block_mesh):
     assert final["sutures"]["s0"]["tension"] == pytest.approx(-k * u, rel=1e-4)
 
 
+def test_a_tension_loop_holds_at_rest_until_its_step(block_mesh):
+    """Four bilateral tension-driven strings on the face x = 1, toward far anchors along +x, pulling
+    in the second step: in the first a force F pushes the face away from the anchors and the loops,
+    tied at rest, hold it as stiff strings (k = EA / L), F = P(1 - u) + 4 k u (P the uniaxial
+    nominal stress, u the face's shortening); in the second each pulls with its tension T alone:
+    P(1 + u) = 4 T - F. Without the hold nothing but the block would carry the first step's load,
+    and a buckle held by such loops alone would float off the sclera (features/sutures.py). The
+    anchors sit on the lines the corners end on in the second step, so those strings end axial; in
+    the first they tilt by 6e-5, which moves the face by about 1e-4 of u."""
+    L, F, T = 1000.0, 0.02, 0.05
+    k = SUTURE_EA / L
+    pushed = brentq(lambda u: -uniaxial_nominal_stress(1 - u, C) + 4 * k * u - F, 0.0, 0.5)
+    pulled = brentq(lambda u: uniaxial_nominal_stress(1 + u, C) - (4 * T - F), 0.0, 1.0)
+    lateral = (1 + pulled) ** -0.5
+    sutures = [Suture(f"s{i}", corner, [1.0 + L, corner[1] * lateral, corner[2] * lateral], tension=T, anchored=True,
+                      bilateral=True, step=1) for i, corner in enumerate(CORNERS)]
+    scene = ef.Scene("held", block_mesh((2, 1, 1)), {"solid": ef.MooneyRivlin(C)},
+                     features=SYMMETRY + sutures + [ef.NodalForce([-F, 0.0, 0.0], surface="x1")],
+                     probes={"corner": [1.0, 1.0, 1.0]}, steps=[ef.Step("push"), ef.Step("pull")],
+                     solver=ef.SolverSettings(increments=2))
+    push, pull = scene.run()["steps"]
+    assert push["probes"]["corner"][0] == pytest.approx(-pushed, rel=1e-3)
+    assert push["sutures"]["s0"]["tension"] == pytest.approx(k * pushed, rel=1e-3)
+    assert pull["probes"]["corner"][0] == pytest.approx(pulled, rel=1e-6)
+    assert pull["sutures"]["s0"]["tension"] == pytest.approx(T)
+
+
 def test_tied_loop_resists_a_slide_across_its_string(block_mesh):
     """A bilateral suture between two nodes, its second end moved: its force on that end is minus
     the gradient of Pi = k/2 (l - l_0)^2 + k_s/2 (s . (u_b - u_a))^2 (sutures.py: s = E x N / |E x N|,

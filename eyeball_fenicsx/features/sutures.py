@@ -20,7 +20,10 @@ between their nodes i and j. The second end may instead be a fixed point in spac
 
 A suture tied around a buckle holds it both ways (``bilateral=True``, the seed's constrained
 suture points): it also resists shortening, T = k (l - l_rest) of either sign, so the
-buckle cannot float off the sclera before contact holds it. Nor slide along it: a string
+buckle cannot float off the sclera before contact holds it. A tension-driven loop holds its
+buckle so too, a stiff string at rest, until its step pulls it; from then on it pulls with its
+tension alone (without the hold, a segmental tire tied by tension floated as the eye was
+pressurized, and every increment of "pressurize" stagnated). Nor slide along it: a string
 has no stiffness across itself but T / l, none while it is slack, and the strings of a
 buckle's sutures all lie in the planes through the sclera's normal at their bites (the
 meridian planes of a tire, the planes of latitude of a radial sponge), so a buckle on the
@@ -71,7 +74,8 @@ class Suture(Feature):
     Args:
         tension: prescribed string tension (ramped in the suture's step), or
         shortening: prescribed shortening of the string's rest length (ramped).
-        stiffness: k of the string for shortening (default: SUTURE_EA / initial length).
+        stiffness: k of the string for shortening, and of a bilateral loop at rest (default:
+            SUTURE_EA / initial length).
         first_surface, second_surface: the surfaces the ends are on: an end is then the nearest
             point of that surface's elements to ``first`` (``second``), its motion interpolated
             from the nodes of the element there (``MaterialPoint``), or, given several points
@@ -124,7 +128,7 @@ class Suture(Feature):
         if self.initial_length == 0:
             raise SceneError(f"suture {self.name!r}: its two ends, first = {self.first_point.tolist()} and second = "
                              f"{self.second_point.tolist()}, are the same point; move them apart")
-        if self.shortening is not None and self.stiffness is None:
+        if self.stiffness is None and (self.shortening is not None or self.bilateral):
             self.stiffness = SUTURE_EA / self.initial_length
         self.across = np.zeros(3)  # s, the direction of the loop's slide spring (bilateral only)
         self.h = self.b
@@ -135,8 +139,7 @@ class Suture(Feature):
             across = np.cross(xb - xa, xa)  # the sclera's normal at the bite: the radius (its centre is the origin)
             if np.linalg.norm(across) > 1e-12 * np.linalg.norm(xa) * self.initial_length:
                 self.across = across / np.linalg.norm(across)
-            stiffness = self.stiffness if self.stiffness is not None else SUTURE_EA / self.initial_length
-            self.slide_stiffness = SLIDE_STIFFNESS * stiffness
+            self.slide_stiffness = SLIDE_STIFFNESS * self.stiffness
 
     def _check_ends(self, solid):
         """An end ties the point of its surface (or the mesh node) nearest to its point: a point
@@ -167,10 +170,11 @@ class Suture(Feature):
             self.slide = self.across @ ((self.h.position() - self.h.reference) - (xa - self.a.reference))
         self.length = np.linalg.norm(xb - xa)
         self.direction = (xb - xa) / self.length
-        if self.tension is not None:
+        if self.tension is not None and (self.factor > 0 or not self.bilateral):
             self.force, self.slope = self.share * self.factor * self.tension, 0.0
-        else:
-            stretch = self.length - (self.initial_length - self.factor * self.shortening)
+        else:  # a stiff string (a tension-driven loop: at rest, before its step pulls)
+            shortening = 0.0 if self.shortening is None else self.factor * self.shortening
+            stretch = self.length - (self.initial_length - shortening)
             # taut from its rest length on: a string tied at rest already holds what it ties
             taut = stretch >= 0 or self.bilateral
             k = self.share * self.stiffness
