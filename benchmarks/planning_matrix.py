@@ -341,7 +341,8 @@ def main():
             for v in matrix:
                 changes = described(v.changes)
                 changes += [f"drain step, {-v.drain_mm3:g} mm^3"] if v.drain_mm3 else []
-                print(f"{v.name:<20}{v.scene:<12}{', '.join(changes)}")
+                changes += [f"buckle_sutures.tension = {v.tension_n:g} N, not shortening"] if v.tension_n else []
+                print(f"{v.name:<24}{v.scene:<12}{', '.join(changes)}")
         return
     unknown = sorted(set(args.only or []) - {v.name for v in matrix})
     if unknown:
