@@ -120,6 +120,12 @@ def shipped_detachment(scene):
     return buckle_layout(**mesh).detachment
 
 
+def special(variant):
+    """The changes that are not a value set, in words: the drainage step, the sutures' tension."""
+    return ([f"drain step: {-variant.drain_mm3:g} mm^3 from the vitreous"] if variant.drain_mm3 else []) + \
+        ([f"buckle_sutures.tension = {variant.tension_n:g} N, not shortening"] if variant.tension_n else [])
+
+
 def described(changes):
     """The changes in words: "path = value"; a detachment by its centre, kept as shipped."""
     return [f"{path}.polar_deg = {value['polar_deg']:.1f} (as shipped)" if isinstance(value, dict)
@@ -149,14 +155,7 @@ def scene_data(variant, base, n_circ):
     if variant.tension_n:
         del data["buckle_sutures"]["shortening"]
         data["buckle_sutures"]["tension"] = variant.tension_n
-    if data == base:  # the shipped value
-        changed = "as shipped"
-    elif variant.drain_mm3:
-        changed = f"drain step: {-variant.drain_mm3:g} mm^3 from the vitreous"
-    elif variant.tension_n:
-        changed = f"buckle_sutures.tension = {variant.tension_n:g} N, not shortening"
-    else:
-        changed = ", ".join(described(variant.changes))
+    changed = "as shipped" if data == base else ", ".join(described(variant.changes) + special(variant))
     set_parameter(data, "mesh.n_circ", n_circ)
     if "file" in data["mesh"]:  # the scene is written elsewhere: its mesh path must not depend on that
         data["mesh"]["file"] = os.path.join(os.path.dirname(os.path.abspath(SCENES[variant.scene])),
@@ -339,10 +338,7 @@ def main():
     if args.list:
         if comm.rank == 0:
             for v in matrix:
-                changes = described(v.changes)
-                changes += [f"drain step, {-v.drain_mm3:g} mm^3"] if v.drain_mm3 else []
-                changes += [f"buckle_sutures.tension = {v.tension_n:g} N, not shortening"] if v.tension_n else []
-                print(f"{v.name:<24}{v.scene:<12}{', '.join(changes)}")
+                print(f"{v.name:<24}{v.scene:<12}{', '.join(described(v.changes) + special(v))}")
         return
     unknown = sorted(set(args.only or []) - {v.name for v in matrix})
     if unknown:

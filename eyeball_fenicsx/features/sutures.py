@@ -22,8 +22,9 @@ A suture tied around a buckle holds it both ways (``bilateral=True``, the seed's
 suture points): it also resists shortening, T = k (l - l_rest) of either sign, so the
 buckle cannot float off the sclera before contact holds it. A tension-driven loop holds its
 buckle so too, a stiff string at rest, until its step pulls it; from then on it pulls with its
-tension alone (without the hold, a segmental tire tied by tension floated as the eye was
-pressurized, and every increment of "pressurize" stagnated). Nor slide along it: a string
+tension alone, ramped from the step's first increment (the force jumps there from the one it held
+at rest; without the hold, a segmental tire tied by tension floated as the eye was pressurized and
+"pressurize" stagnated, cut back again and again). Nor slide along it: a string
 has no stiffness across itself but T / l, none while it is slack, and the strings of a
 buckle's sutures all lie in the planes through the sclera's normal at their bites (the
 meridian planes of a tire, the planes of latitude of a radial sponge), so a buckle on the
@@ -72,7 +73,8 @@ class Suture(Feature):
     """A string from a point ``first`` to a point ``second`` (reference coordinates).
 
     Args:
-        tension: prescribed string tension (ramped in the suture's step), or
+        tension: prescribed string tension (ramped in the suture's step; a bilateral loop holds at
+            rest before it), or
         shortening: prescribed shortening of the string's rest length (ramped).
         stiffness: k of the string for shortening, and of a bilateral loop at rest (default:
             SUTURE_EA / initial length).

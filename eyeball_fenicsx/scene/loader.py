@@ -48,7 +48,8 @@ Extensions beyond the contract (documented in README.md):
 * ``[buckle_sutures]`` (``count``, ``width``, ``azimuths``, ``bite``, ``tension`` or ``shortening``,
   ``stiffness``, ``step``): sutures generated from the buckled eye's geometry, each tying a
   sclera bite ``width / 2`` from the buckle's centre line, ``bite`` mm long, to the buckle's top
-  edge; they are tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``).
+  edge; they are tied around the buckle, so they hold it both ways (``Suture(bilateral=True)``),
+  and a loop tied by ``tension`` holds it at rest until its step (``stiffness``: the string's).
 """
 import dataclasses
 import os
