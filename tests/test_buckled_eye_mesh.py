@@ -20,6 +20,7 @@ from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.builders.buckle_sutures import BITE_LENGTH, BITE_SPACING
 from eyeball_fenicsx.meshing.builders.eye_meridian import SPACING
+from eyeball_fenicsx.meshing.builders.eye_revolution import node_azimuths
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 from eyeball_fenicsx.scene.loader import load_scene
@@ -458,9 +459,8 @@ def test_the_eye_is_graded_around_a_tires_sutures():
     README's "about 0.13": the spacing 0.1 mm at the circle, 0.5 mm longer per mm away), each
     element near them as long as the meridian's spacing at its middle to 15 % and at most 1.7 times
     its neighbour; refine 2 halves every element. An encircling band (its tightening pushes the
-    buckle in) and a radial sponge (its bites run along the meridian) are not graded unless asked,
-    and the sponge cannot be."""
-    lines = buckled_eye.suture_grading(SEGMENTAL)
+    buckle in) is not graded unless asked."""
+    lines = buckled_eye.suture_grading(SEGMENTAL)["graded_at"]
     layout = buckled_eye.buckle_layout(**SEGMENTAL)
     ro, margin = layout.globe_radius, buckled_eye.SUTURE_MARGIN
     half = 2.0 * ro / (ro + GAP)
@@ -484,12 +484,46 @@ def test_the_eye_is_graded_around_a_tires_sutures():
     assert len(columns[2]) - 1 == 2 * (len(columns[1]) - 1)
     mesh, _ = buckled_eye.buckled_eye_geometry(**SEGMENTAL, graded_at=list(lines))
     assert mesh.info["min_scaled_jacobian"] > eye.MIN_SCALED_JACOBIAN
+    assert buckled_eye.suture_grading(ENCIRCLED) == buckled_eye.suture_grading(TIRED) == {}
+    assert len(buckled_eye.suture_grading(TIRED, graded=True)["graded_at"]) == 4
+
+
+def test_the_eye_is_graded_around_a_radial_sponges_sutures():
+    """A radial sponge (5 mm wide on its inner surface, radius R_o + gap, at 45 degrees) tied by two
+    sutures across it: the eye is graded across the meridians at the sponge's sides and at the
+    bites' meridians, suture_width / 2 = 2.5 R_o / (R_o + gap) + SUTURE_MARGIN mm along each
+    suture's circle of latitude from the middle. Each is a node azimuth, or within 0.1 mm of
+    another's (the two bites of one side, at two latitudes, are about 0.05 mm apart); along the equator
+    the elements either side of a node's line are 0.10-0.15 mm long, and neighbours differ by at most 1.8 times
+    (1.5 by the growth, more where a piece's count is rounded);
+    there are nodes at 0 and 180 degrees (the section pictures), a multiple of 8 in all; and the
+    cores, which turn the even azimuths of their square onto the graded ones, keep every corner's
+    scaled Jacobian above the builder's bound. A tire or a band is refused on a graded eye."""
     sponge = {"n_circ": N_CIRC, "sector_deg": 360.0, "sponge": {"azimuth_deg": 45.0}}
-    assert buckled_eye.suture_grading(ENCIRCLED) == buckled_eye.suture_grading(TIRED) == ()
-    assert buckled_eye.suture_grading(sponge) == ()
-    assert len(buckled_eye.suture_grading(TIRED, graded=True)) == 4
-    with pytest.raises(SceneError, match="radial sponge's bites run along it"):
-        buckled_eye.suture_grading(sponge, graded=True)
+    sutures = buckled_eye.suture_points(sponge, count=2)
+    lines = buckled_eye.suture_grading(sponge, sutures)["graded_azimuths"]
+    layout = buckled_eye.buckle_layout(**sponge)
+    ro, theta_c = layout.globe_radius, layout.centre_theta
+    side = math.degrees(2.5 / ((ro + GAP) * math.sin(theta_c)))
+    half_width = 2.5 * ro / (ro + GAP) + buckled_eye.SUTURE_MARGIN  # mm along the circle of latitude
+    bites = [math.degrees(half_width / (ro * math.sin(math.radians(s["polar_deg"])))) for s in sutures[::2]]
+    expected = sorted([45 - side, 45 + side, *(45 + sign * bite for bite in bites for sign in (-1, 1))])
+    assert lines == pytest.approx(expected, abs=1e-8)
+    azimuths = np.degrees(node_azimuths(N_CIRC, 360.0, np.radians(lines), ro))
+    assert len(azimuths) % 8 == 0 and azimuths[0] == 0.0 and np.min(np.abs(azimuths - 180.0)) < 1e-12
+    length = np.radians(np.diff(np.append(azimuths, 360.0))) * ro  # along the equator
+    on_nodes = [line for line in lines if np.min(np.abs(azimuths - line)) < 1e-9]
+    for line in lines:  # a line within 0.1 mm of another one's node shares it
+        assert np.min(np.abs(np.subtract(on_nodes, line))) * math.pi / 180 * ro <= 0.1
+    for line in on_nodes:
+        at = int(np.argmin(np.abs(azimuths - line)))
+        assert np.all((0.10 <= length[at - 1:at + 1]) & (length[at - 1:at + 1] <= 0.15))
+    ratio = length / np.roll(length, 1)
+    assert np.all((1 / 1.8 < ratio) & (ratio < 1.8))
+    mesh, _ = buckled_eye.buckled_eye_geometry(**sponge, graded_azimuths=lines)
+    assert mesh.info["min_scaled_jacobian"] > eye.MIN_SCALED_JACOBIAN
+    with pytest.raises(SceneError, match="a tire or a band lies on the eye's even azimuths"):
+        buckled_eye.buckle_layout(**SEGMENTAL, graded_azimuths=[45.0])
 
 
 def test_circles_closer_than_the_fine_spacing_share_a_column():
@@ -503,15 +537,21 @@ def test_circles_closer_than_the_fine_spacing_share_a_column():
         assert mesh.info["min_scaled_jacobian"] == pytest.approx(single.info["min_scaled_jacobian"], abs=0.05)
 
 
-def test_a_scene_grades_the_eye_of_its_sutured_tire(tmp_path):
-    """Read from a scene: a segmental tire with [buckle_sutures] builds the eye graded at the circles
-    of suture_grading (by default), uniform with ``[mesh] graded = false``."""
-    scene = ('name = "graded"\ntissues = "seed"\n[mesh]\nbuilder = "buckled_eye"\nn_circ = 16\n'
-             'tire = { width = 4.0, height = 1.0, arc_deg = 90.0, azimuth_deg = 30.0 }\n{graded}'
-             '[materials.tire]\nmodel = "neo-hooke"\nc10 = 0.41\n[[step]]\nname = "suture"\n'
-             '[buckle_sutures]\ntension = 0.01\n')
-    for graded, expected in (("", list(buckled_eye.suture_grading(SEGMENTAL))), ("graded = false\n", None)):
+@pytest.mark.parametrize("buckle", ["tire", "sponge"])
+def test_a_scene_grades_the_eye_of_its_sutured_buckle(tmp_path, buckle):
+    """Read from a scene: a segmental tire or a radial sponge with [buckle_sutures] builds the eye
+    graded at the lines of suture_grading (by default: circles of latitude for the tire, meridians
+    for the sponge), uniform with ``[mesh] graded = false``."""
+    body = {"tire": {"width": 4.0, "height": 1.0, "arc_deg": 90.0, "azimuth_deg": 30.0},
+            "sponge": {"width": 5.0, "height": 2.0, "length": 10.0, "azimuth_deg": 45.0}}[buckle]
+    parameters = {"n_circ": N_CIRC, "sector_deg": 360.0, buckle: body}
+    (key, expected), = buckled_eye.suture_grading(parameters, buckled_eye.suture_points(parameters, count=2)).items()
+    inline = ", ".join(f"{k} = {v}" for k, v in body.items())
+    scene = (f'name = "graded"\ntissues = "seed"\n[mesh]\nbuilder = "buckled_eye"\nn_circ = {N_CIRC}\n'
+             f'sector_deg = 360.0\n{buckle} = {{ {inline} }}\n{{graded}}[materials.{buckle}]\nmodel = "neo-hooke"\n'
+             'c10 = 0.41\n[[step]]\nname = "suture"\n[buckle_sutures]\ncount = 2\ntension = 0.01\n')
+    for graded, lines in (("", expected), ("graded = false\n", None)):
         path = tmp_path / f"scene{COMM.rank}{len(graded)}.toml"
         path.write_text(scene.replace("{graded}", graded))
-        parameters = load_scene(str(path)).mesh.parameters
-        assert parameters.get("graded_at") == (pytest.approx(expected, abs=1e-12) if expected else None)
+        built = load_scene(str(path)).mesh.parameters
+        assert built.get(key) == (pytest.approx(lines, abs=1e-12) if lines else None)

@@ -322,15 +322,20 @@ CASES = {
     "buckle-sutures-outside-the-tire": (tire("{ arc_deg = 90.0 }") + "[buckle_sutures]\nazimuths = [180.0]\n"
                                         "tension = 0.1\n",
                                         ["[buckle_sutures]", "no suture at azimuth 180.0 deg, outside the tire"]),
-    # the grading of the buckled eye around its sutures ([mesh] graded) and of any eye ([mesh] graded_at)
+    # the grading of the buckled eye around its sutures ([mesh] graded) and of any eye ([mesh] graded_at,
+    # graded_azimuths)
     "graded-without-buckle-sutures": (tire("{ arc_deg = 90.0 }", "graded = true\n"),
                                       ["[mesh]", "graded refines the eye around the sutures' bites",
                                        "[buckle_sutures]"]),
     "graded-not-a-flag": (tire("{ arc_deg = 90.0 }", 'graded = "yes"\n') + "[buckle_sutures]\ntension = 0.1\n",
                           ["[mesh]", "graded must be true or false, got 'yes'"]),
-    "graded-sponge": (sponge("{ azimuth_deg = 45.0 }", "sector_deg = 360\nn_circ = 16\ngraded = true\n")
-                      + "[buckle_sutures]\ntension = 0.1\n",
-                      ["[buckle_sutures]", "a radial sponge's bites run along it"]),
+    "graded-azimuths-in-a-wedge": (eye("graded_azimuths = [45.0]\n" + SMALL_EYE),
+                                   ["[mesh]", "graded_azimuths needs the whole eye (sector_deg = 360)", "90"]),
+    "graded-azimuths-not-a-list": (eye("graded_azimuths = 45.0\nn_circ = 16\n"),
+                                   ["[mesh]", "graded_azimuths must be a list of azimuths (degrees), got 45.0"]),
+    "graded-azimuths-under-a-tire": (tire("{ arc_deg = 90.0 }", "graded_azimuths = [10.0]\n"),
+                                     ["[mesh]", "graded_azimuths grades the eye around a radial sponge",
+                                      "a tire or a band lies on the eye's even azimuths"]),
     "graded-at-off-the-sclera": (eye("graded_at = [12.5, 40.0]\n" + SMALL_EYE),
                                  ["[mesh]", "graded_at 40.0 mm behind the limbus is off the sclera that can be"]),
     "graded-at-the-zonule": (eye("graded_at = [2.0]\n" + SMALL_EYE),

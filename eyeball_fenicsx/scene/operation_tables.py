@@ -125,7 +125,7 @@ def read_buckle_sutures(reading: Reading) -> None:
             "stiffness": t.get("stiffness", "positive"), "bilateral": True, "step": reading.step_of(t)}
     with t.located((SceneError, TypeError)):  # the buckle's own checks (and those of [mesh])
         points = suture_points(parameters, **where)
-        reading.graded_at = suture_grading(parameters, where["suture_width"], graded)
+        reading.graded = suture_grading(parameters, points, graded)
     for point in points:
         if point["name"] in reading.sutures:
             raise t.error(f"suture name {point['name']!r} is used twice: rename the [[suture]]")

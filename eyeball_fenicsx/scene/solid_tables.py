@@ -160,13 +160,13 @@ def read_mesh(reading: Reading) -> None:
         raise SceneError(f"{reading.path}: {given}: give [mesh] file = \"<mesh>.msh\" (relative to the scene file) "
                          "or [mesh] builder = ...")
     if "graded" in mesh:  # the sutures' grading (read by [buckle_sutures]), not the builder's
-        if reading.graded_at is None:
+        if reading.graded is None:
             raise SceneError(f"{reading.path}: [mesh]: graded refines the eye around the sutures' bites: it needs "
                              "[buckle_sutures]")
         mesh = {k: v for k, v in mesh.items() if k != "graded"}
-    if reading.graded_at:  # with the scene's own circles, if it gives them
-        given = mesh.get("graded_at", [])
-        mesh = {**mesh, "graded_at": [*given, *reading.graded_at] if isinstance(given, list) else given}
+    for key, lines in (reading.graded or {}).items():  # with the scene's own lines, if it gives them
+        given = mesh.get(key, [])
+        mesh = {**mesh, key: [*given, *lines] if isinstance(given, list) else given}
     table = Table(mesh, f"{reading.path}: [mesh]", set(mesh))  # keys are checked per mesh source
     reading.mesh = mesh_table(table, os.path.dirname(os.path.abspath(reading.path)), reading.comm)
     cells = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}[reading.mesh.mesh.ufl_cell().cellname()]

@@ -103,7 +103,7 @@ class Reading:
     sutures: set[str] = dataclasses.field(default_factory=set)  # names, unique: keys of "sutures" in summary.json
     probes: dict[str, list[float]] = dataclasses.field(default_factory=dict)
     surfaces: list[tuple[str, str]] = dataclasses.field(default_factory=list)  # (surface, where), for the mesh
-    graded_at: tuple[float, ...] | None = None  # the buckled eye's lines graded for [buckle_sutures], if any
+    graded: dict | None = None  # the buckled eye's grading for [buckle_sutures] (eye parameters), if any
     settings: SolverSettings | None = None
     element: str | None = None
     mesh: MeshData | None = None

@@ -240,6 +240,9 @@ def buckle_layout(band_width: float = BAND_WIDTH, band_thickness: float = BAND_T
         band = not segmental
     if not band and tire is None and sponge is None:
         raise SceneError("buckled_eye: without the band there must be a tire or a sponge")
+    if len(p["graded_azimuths"]) and (band or tire is not None):
+        raise SceneError("buckled_eye: graded_azimuths grades the eye around a radial sponge; a tire or a band lies "
+                         "on the eye's even azimuths")
     Ro, theta_c = m.Ro, (m.s_l - band_position) / m.Ro
     grid = node_azimuths(n_circ, sector)
     whole = sector >= 360.0

@@ -41,7 +41,10 @@ stiff there: it overstated a segmental tire's indentation by about 45 % (README,
 around the sutures"). So where the sutures alone push the buckle in (a tire without an encircling
 band; with a band, the band's tightening does), the eye is graded along the meridian at the edges
 of the body on the sclera and at the bites' circles of latitude
-(:func:`suture_grading`, the eye's ``graded_at``; ``[mesh] graded`` in a scene).
+(:func:`suture_grading`, the eye's ``graded_at``; ``[mesh] graded`` in a scene). Beside a radial
+sponge the strip between its side and the bites runs along the meridian, so the eye is graded
+across the meridians instead, at the sponge's sides and the bites' meridians (the eye's
+``graded_azimuths``).
 
 In a wedge model a suture on a cut plane is kept with ``share`` 1/2 (its mirror image holds the
 other half): dropping it can leave the buckle with a single suture azimuth, whose two strings meet
@@ -126,32 +129,41 @@ def suture_points(parameters: dict | None = None, count: int = 4, suture_width: 
     return sutures
 
 
-def suture_grading(parameters: dict | None = None, suture_width: float | None = None,
-                   graded: bool | None = None) -> tuple[float, ...]:
-    """The circles of latitude the eye's mesh is graded at for the sutures (``graded_at`` of
-    :func:`eye.build_eye`, mm behind the limbus): the edges of the body on the sclera and the
-    sutures' bites (the module docstring says why).
+def suture_grading(parameters: dict | None = None, sutures: list[dict] | None = None,
+                   graded: bool | None = None) -> dict:
+    """The eye's grading for the sutures (the module docstring says why): the eye parameters to add
+    to ``parameters``. For a tire or a band, ``graded_at`` (:func:`eye.build_eye`, mm behind the
+    limbus): the circles of latitude of the body's edges on the sclera and of the sutures' bites.
+    For a radial sponge, ``graded_azimuths`` (degrees): the meridians of its sides and of the bites.
 
     Args:
-        parameters, suture_width: as :func:`suture_points`.
-        graded: grade the mesh; by default, when the sutures alone push the buckle in: a tire
-            without an encircling band (a band's tightening does it with a band).
+        parameters: as :func:`suture_points`.
+        sutures: the sutures, as :func:`suture_points` gives them (by default its defaults').
+        graded: grade the mesh; by default, when the sutures alone push the buckle in: a tire or a
+            sponge without an encircling band (a band's tightening does it with a band).
 
-    Raises:
-        SceneError: if ``graded`` is asked for a radial sponge, whose sutures run along the meridian.
+    Returns:
+        ``{}`` if not graded, else ``{"graded_at": [...]}`` or ``{"graded_azimuths": [...]}``.
     """
     layout = buckle_layout(**(parameters or {}))
     body = layout.bodies[layout.sutured]  # the body on the sclera
     if graded is None:
-        graded = "band" not in layout.bodies and not body.radial
+        graded = "band" not in layout.bodies
     if not graded:
-        return ()
+        return {}
+    bites = np.array([suture["sclera"] for suture in (suture_points(parameters) if sutures is None else sutures)])
     if body.radial:
-        raise SceneError("buckled_eye: graded refines the eye along the meridian, across a tire or band; a radial "
-                         "sponge's bites run along it")
-    half = _half_width(layout, suture_width)
-    thetas = (*body.theta, layout.centre_theta - half, layout.centre_theta + half)
-    return tuple(sorted(layout.limbus_arc - layout.globe_radius * theta for theta in thetas))
+        lines = np.degrees([*body.azimuths[[0, -1]], *np.arctan2(bites[:, 1], bites[:, 0])])
+        return {"graded_azimuths": _distinct(lines)}
+    thetas = np.array([*body.theta, *np.arccos(-bites[:, 2] / np.linalg.norm(bites, axis=1))])
+    return {"graded_at": _distinct(layout.limbus_arc - layout.globe_radius * thetas)}
+
+
+def _distinct(values) -> list[float]:
+    """The values sorted, each of those within 1e-9 of the one before dropped (a suture's bites repeat
+    their circle or meridian)."""
+    values = np.sort(values)
+    return [float(v) for v in values[np.append(True, np.diff(values) > 1e-9)]]
 
 
 def _across_sponge(layout: BuckleLayout, body: BuckleBody, count, suture_width, bite):

@@ -37,6 +37,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ...checks import is_number
 from ...errors import SceneError
 from .eye_detachment import DETACHMENT_KEYS, check_detachment, detach
 from .eye_meridian import ANTERIOR_CHAMBER_DEPTH, CILIARY_THICKNESS, CORNEA_RADIUS, N_CIRC, Meridian
@@ -89,6 +90,12 @@ def _check_parameters(p):
     if p["n_circ"] % 8:
         raise SceneError(f"eye: n_circ must be a multiple of 8 (the butterfly cores have n_circ / 4 quadrilaterals "
                          f"a side, an even number), got {p['n_circ']}")
+    graded = p["graded_azimuths"]
+    if not (isinstance(graded, (list, tuple, np.ndarray)) and all(is_number(x) for x in graded)):
+        raise SceneError(f"eye: graded_azimuths must be a list of azimuths (degrees), got {graded!r}")
+    if len(graded) and p["sector_deg"] < 360.0:
+        raise SceneError(f"eye: graded_azimuths needs the whole eye (sector_deg = 360), got sector_deg "
+                         f"{p['sector_deg']:g}")
     inner = p["choroid_thickness"] + p["retina_thickness"]
     if not inner < CILIARY_THICKNESS:
         raise SceneError(f"eye: choroid_thickness + retina_thickness ({inner}) must be below the ciliary body "
@@ -120,7 +127,8 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
                  cornea_thickness: float = 0.53, choroid_thickness: float = 0.25, retina_thickness: float = 0.25,
                  optic_nerve_diameter: float = 3.5, optic_nerve_length: float = 3.0, detachment: dict | None = None,
                  refine: int = 1, n_circ: int | None = None, sector_deg: float = 360.0,
-                 wall_layers: int = 1, graded_at: Sequence[float] = ()) -> EyeMesh:
+                 wall_layers: int = 1, graded_at: Sequence[float] = (),
+                 graded_azimuths: Sequence[float] = ()) -> EyeMesh:
     """The eye mesh as numpy arrays (see :func:`build_eye` for the parameters).
 
     Returns:
@@ -136,7 +144,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
     p, m = checked_parameters(p)
     if detachment is not None:
         detachment = check_detachment(detachment, m, p["sector_deg"])
-    nodes, hexes, regions = assemble_eye(m, p["n_circ"], p["sector_deg"])
+    nodes, hexes, regions = assemble_eye(m, p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]))
     if detachment is not None:
         nodes, hexes = detach(nodes, hexes, regions, m, detachment, p["sector_deg"])
     _, scaled = corner_jacobians(nodes, hexes)
@@ -259,6 +267,10 @@ def build_eye(**parameters) -> dict:
             a circle (its neighbouring elements about 0.13 mm long) and 0.5 mm longer per mm away,
             up to the usual 0.8 (over ``refine``; eye_meridian.py). A scene's ``[buckle_sutures]``
             grades at a tire's edges and its sutures' bites (buckle_sutures.suture_grading).
+        graded_azimuths: meridians, by their azimuth (degrees), around which the elements are finer
+            across the meridian, on the whole eye: the same spacing and growth as ``graded_at``'s,
+            measured along the equator, from the usual 2 pi R_o / n_circ (eye_revolution.py). A
+            scene's ``[buckle_sutures]`` grades at a radial sponge's sides and its sutures' bites.
 
     Returns:
         The mesh statistics (:attr:`EyeMesh.info`).

@@ -11,7 +11,23 @@ and azimuth. Its outer circle has the n_circ nodes of the revolved column q = q_
 and the revolved mesh conform. Nodes that the parts have in common are merged (within 1e-7 of the
 model's size): bonded tissues share nodes. Hexahedra whose corner Jacobians are all negative are
 turned over, so that every element is positively oriented.
+
+Around given meridians (``graded_azimuths``: a radial sponge's sides and its sutures' bites,
+buckle_sutures.py) the azimuths are graded as the meridian's columns are at the circles of
+latitude (eye_meridian.py): measured along the equator, the spacing is ``FINE_SPACING`` (over
+``refine``) at each such meridian and grows by ``GRADING`` per mm away from the nearest, up to the
+usual 2 pi R_o / n_circ; the azimuths 0 and pi stay nodes (the section pictures cut the plane
+y = 0), and the count is raised to a multiple of 8 for the cores. A core's square still has its
+boundary nodes evenly spread, so its rings turn them onto the graded azimuths: the square is
+smaller (``GRADED_CORE_SQUARE``), its nodes are first moved out onto a circle (``ROUND``), and from
+there each node's angle changes in proportion to the logarithm of the radius, so that every ring's
+quadrilaterals are sheared alike, with a ring per ``MAX_RING_TURN`` of the largest turn (each node
+goes to the graded azimuth the same number of places on, the shift that turns the nodes least).
+Such a core has (N / 4)^2 quadrilaterals in its square and a few rings of N: with N = 72 on the
+default eye graded around a radial sponge, about a third of the mesh's hexahedra are in the cores.
 """
+import math
+
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -21,6 +37,8 @@ from .eye_meridian import (
     CHOROID_LAYERS,
     CORE_SQUARE,
     CORNEA_CORE,
+    FINE_SPACING,
+    GRADING,
     LENS_COLUMNS,
     LENS_CORE,
     LENS_LAYERS,
@@ -31,16 +49,21 @@ from .eye_meridian import (
 )
 from .hexes import corner_jacobians, hex_grid
 
+MAX_RING_TURN = math.radians(30.0)  # the largest turn of a graded core's ring about the axis
+GRADED_CORE_SQUARE = 0.2  # a graded core's square, smaller, so that its rings have room to turn ...
+ROUND = 0.35              # ... from a circle just outside it
 
-def _disc(n_circ, rings):
+
+def _disc(n_circ, rings, azimuths=None):
     """Butterfly mesh of the unit disc: a square of (n_circ / 4)^2 quadrilaterals inside ``rings``
-    rings of n_circ quadrilaterals, whose outer nodes are at angles 2 pi k / n_circ.
+    rings of n_circ quadrilaterals, whose outer nodes are at angles 2 pi k / n_circ, or at the
+    graded ``azimuths`` (n_circ of them; then with rings enough to turn to them: :func:`_turns`).
 
     Returns:
         ``(points, quads)``: coordinates, shape ``(N, 2)``, and counter-clockwise quadrilaterals.
     """
     m = n_circ // 4
-    ticks = CORE_SQUARE * np.linspace(-1.0, 1.0, m + 1)
+    ticks = (CORE_SQUARE if azimuths is None else GRADED_CORE_SQUARE) * np.linspace(-1.0, 1.0, m + 1)
     grid = np.arange((m + 1) ** 2).reshape(m + 1, m + 1)  # grid[i, j] at (ticks[i], ticks[j])
     points = [np.stack(np.meshgrid(ticks, ticks, indexing="ij"), axis=-1).reshape(-1, 2)]
     quads = [np.stack([grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]], axis=-1).reshape(-1, 4)]
@@ -49,13 +72,16 @@ def _disc(n_circ, rings):
     boundary = np.concatenate([grid[m, half:], grid[m - 1::-1, m], grid[0, m - 1::-1], grid[1:, 0],
                                grid[m, 1:half]])
     square = points[0][boundary]
-    angles = 2 * np.pi * np.arange(n_circ) / n_circ
-    circle = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    if azimuths is None:
+        angles = 2 * np.pi * np.arange(n_circ) / n_circ
+        circle = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+        ring_points = [(1 - t) * square + t * circle for t in np.arange(1, rings + 1) / rings]
+    else:
+        ring_points = _turns(square, azimuths, rings)
     previous = boundary
-    for ring in range(1, rings + 1):
-        t = ring / rings
-        ids = (m + 1) ** 2 + (ring - 1) * n_circ + np.arange(n_circ)
-        points.append((1 - t) * square + t * circle)
+    for ring, ring_point in enumerate(ring_points):
+        ids = (m + 1) ** 2 + ring * n_circ + np.arange(n_circ)
+        points.append(ring_point)
         quads.append(np.stack([previous, ids, np.roll(ids, -1), np.roll(previous, -1)], axis=-1))
         previous = ids
     points = np.concatenate(points)
@@ -63,10 +89,62 @@ def _disc(n_circ, rings):
     return points, np.concatenate(quads)
 
 
-def node_azimuths(n_circ: int, sector_deg: float) -> np.ndarray:
-    """The eye's node azimuths (rad): 2 pi k / n_circ over the model's sector (with both ends in a wedge)."""
+def _turns(square, azimuths, rings):
+    """The rings' points from the core square's boundary nodes (evenly spread) out to the unit
+    circle's at the graded ``azimuths``. The first ring is the square's nodes moved out along
+    their directions onto the circle of radius ``ROUND``; from there square node k turns to the
+    azimuth k + shift (the shift that turns the nodes least), by steps of the same ratio of radius,
+    so that r d(angle) / d(radius) is the same at every radius, with at least one ring per
+    ``MAX_RING_TURN`` of the largest turn."""
+    n = len(azimuths)
+    psi = np.unwrap(np.arctan2(square[:, 1], square[:, 0]))
+    k = np.arange(n)
+    best = None
+    for shift in range(n):
+        turn = azimuths[(k + shift) % n] + 2 * np.pi * ((k + shift) // n) - psi
+        turn -= 2 * np.pi * round(float(np.mean(turn)) / (2 * np.pi))
+        if best is None or np.abs(turn).max() < np.abs(best).max():
+            best = turn
+    rings = max(rings, math.ceil(np.abs(best).max() / MAX_RING_TURN))
+    out = [ROUND * np.stack([np.cos(psi), np.sin(psi)], axis=-1)]
+    for t in np.arange(1, rings + 1) / rings:
+        angle = psi + t * best
+        out.append(ROUND ** (1 - t) * np.stack([np.cos(angle), np.sin(angle)], axis=-1))
+    return out
+
+
+def node_azimuths(n_circ: int, sector_deg: float, graded=(), radius: float = 1.0, refine: int = 1) -> np.ndarray:
+    """The eye's node azimuths (rad), increasing from 0: 2 pi k / n_circ over the model's sector (with
+    both ends in a wedge); on the whole eye, graded around the azimuths ``graded`` (rad) at the
+    equator's ``radius`` (module docstring)."""
+    if len(graded):
+        return _graded_azimuths(n_circ, np.mod(graded, 2 * np.pi), radius, refine)
     sectors = round(n_circ * sector_deg / 360.0)
     return 2 * np.pi * np.arange(sectors + (0 if sector_deg >= 360.0 else 1)) / n_circ
+
+
+def _graded_azimuths(n_circ, lines, radius, refine):
+    """The whole circle's azimuths graded around ``lines`` (rad, in [0, 2 pi)): each piece between two
+    breaks (the lines and the azimuths 0 and pi, but a line within FINE_SPACING of a break before it) is
+    divided where equal steps of the integral of 1 / spacing fall, and the pieces whose steps are
+    longest are given one more until the count is a multiple of 8."""
+    fine = FINE_SPACING / refine / radius  # rad
+    breaks = [0.0, np.pi]
+    for line in sorted(lines):
+        if min(abs(math.remainder(line - b, 2 * np.pi)) for b in breaks) > fine:
+            breaks.append(line)
+    breaks = np.sort(breaks)
+    pieces = [np.linspace(a, b, 401) for a, b in zip(breaks, [*breaks[1:], 2 * np.pi])]
+    steps = []
+    for phi in pieces:
+        away = np.min(np.abs(np.remainder(phi[:, None] - lines + np.pi, 2 * np.pi) - np.pi), axis=1)
+        density = 1.0 / np.minimum(2 * np.pi / n_circ, fine + GRADING * away / refine)
+        steps.append(np.concatenate([[0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(phi))]))
+    counts = np.array([max(1, round(step[-1])) for step in steps])
+    while counts.sum() % 8:
+        counts[np.argmax([step[-1] / count for step, count in zip(steps, counts)])] += 1
+    return np.concatenate([np.interp(np.linspace(0.0, step[-1], count + 1)[:-1], step, phi)
+                           for phi, step, count in zip(pieces, steps, counts)])
 
 
 def cos_sin(azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -81,10 +159,12 @@ def cos_sin(azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class _Assembly:
     """Hexahedra of the revolved blocks and the butterfly cores, before their common nodes are merged."""
 
-    def __init__(self, n_circ, sector_deg, refine):
+    def __init__(self, m, n_circ, sector_deg, graded):
         self.full = sector_deg >= 360.0
-        self.cos, self.sin = cos_sin(node_azimuths(n_circ, sector_deg))
-        points, quads = _disc(n_circ, refine)
+        refine = m.p["refine"]
+        azimuths = node_azimuths(n_circ, sector_deg, graded, m.Ro, refine)
+        self.cos, self.sin = cos_sin(azimuths)
+        points, quads = _disc(len(azimuths), refine, azimuths) if len(graded) else _disc(n_circ, refine)
         if not self.full:  # keep the cells of the wedge 0 <= azimuth <= sector
             centre = points[quads].mean(axis=1)
             azimuth = np.mod(np.arctan2(centre[:, 1], centre[:, 0]), 2 * np.pi)
@@ -149,12 +229,14 @@ class _Assembly:
         return nodes, hexes, regions
 
 
-def assemble_eye(m: Meridian, n_circ: int, sector_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Assemble the whole eye from the meridian ``m``: nodes, hexahedra and region per hexahedron."""
+def assemble_eye(m: Meridian, n_circ: int, sector_deg: float,
+                 graded=()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Assemble the whole eye from the meridian ``m``, revolved over :func:`node_azimuths` (graded
+    around the azimuths ``graded``, rad, on the whole eye): nodes, hexahedra and region per hexahedron."""
     r = m.p["refine"]
     ns, ni = SCLERA_LAYERS * m.wall, len(m.fractions) - 1
     nch = CHOROID_LAYERS * m.wall
-    parts = _Assembly(n_circ, sector_deg, r)
+    parts = _Assembly(m, n_circ, sector_deg, graded)
     s = m.columns
     mid = 0.5 * (s[1:] + s[:-1])
 
