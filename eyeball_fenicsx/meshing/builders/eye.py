@@ -267,10 +267,9 @@ def build_eye(**parameters) -> dict:
             a circle (its neighbouring elements about 0.13 mm long) and 0.5 mm longer per mm away,
             up to the usual 0.8 (over ``refine``; eye_meridian.py). A scene's ``[buckle_sutures]``
             grades at a tire's edges and its sutures' bites (buckle_sutures.suture_grading).
-        graded_azimuths: meridians, by their azimuth (degrees), around which the elements are finer
-            across the meridian, on the whole eye: the same spacing and growth as ``graded_at``'s,
-            measured along the equator, from the usual 2 pi R_o / n_circ (eye_revolution.py). A
-            scene's ``[buckle_sutures]`` grades at a radial sponge's sides and its sutures' bites.
+        graded_azimuths: meridians (azimuths, degrees; whole eye) around which the elements are
+            finer across the meridian, spaced as ``graded_at``'s along the equator (eye_revolution.py;
+            a scene's ``[buckle_sutures]`` grades at a radial sponge's sides and its sutures' bites).
 
     Returns:
         The mesh statistics (:attr:`EyeMesh.info`).
