@@ -13,8 +13,8 @@
 # "suture" (the sutures, tied over the buckle, shortened by 0.4 mm, press it into the sclera).
 #
 # Run: `mpirun -n 2 python3 demos/segmental_buckle_45.py` (`EYE_N_CIRC=16` for a coarse eye;
-# `SPONGE_GRADED=false` for the sponge on an eye not graded around its sutures, as the tests run
-# it: graded, the coarse eye's 4,000 hexahedra become 15,000 and its run takes six times as long);
+# `SPONGE_GRADED=false` for the sponge on an eye not graded around its sutures: graded, the coarse
+# eye's 4,000 hexahedra become 15,600 and its run takes ten times as long);
 # summary.json and the pictures go to `DEMO_OUT` (default `out/segmental_buckle_45`), one folder
 # per scene.
 

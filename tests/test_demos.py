@@ -64,8 +64,8 @@ DEMOS = {
     # (the kinematic bound of segmental_buckle.py) and by more than a third of it (a judgment, as
     # there); the wall diametrically opposite each buckle moves by less than 5 % of its indentation
     # (issue 18's criterion: the buckle indents the sclera under itself only); the sponge on the
-    # uniform eye (graded, the run takes six times as long and its opposite wall reads 5.2 %)
-    "segmental_buckle_45.py": ({"EYE_N_CIRC": "16", "SPONGE_GRADED": "false"},
+    # eye graded around its sutures, as by default (measured 61 % and 4.5 %; uniform, 97 % and 4.7 %)
+    "segmental_buckle_45.py": ({"EYE_N_CIRC": "16"},
                                [("balance_error_max", 1e-6), ("opposite_ratio_max", 0.05),
                                 ("indentation_ratio_min", (1 / 3, 1.0)), ("indentation_ratio_max", (1 / 3, 1.0))]),
 }

@@ -41,7 +41,7 @@ from ...checks import is_number
 from ...errors import SceneError
 from .eye_detachment import DETACHMENT_KEYS, check_detachment, detach
 from .eye_meridian import ANTERIOR_CHAMBER_DEPTH, CILIARY_THICKNESS, CORNEA_RADIUS, N_CIRC, Meridian
-from .eye_revolution import assemble_eye
+from .eye_revolution import assemble_eye, node_azimuths
 from .eye_surfaces import TOLERANCE, check_closed, name_surfaces
 from .hexes import add_hex_model, builder_main, check, corner_jacobians, enclosed_volume, msh_writer
 
@@ -185,6 +185,8 @@ def _statistics(nodes, hexes, regions, surfaces, scaled, m, p):
         "limbus": (m.rho_l, float(m.outer(m.s_l)[0][1])),
         "ora_serrata_deg": math.degrees(m.s_ora / m.Ro),
         "optic_nerve_end_z": m.z_nerve_end, "n_circ": p["n_circ"],
+        "azimuths": len(node_azimuths(p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]), m.Ro,
+                                      p["refine"])),  # node planes, with a wedge's both ends
     }
 
 

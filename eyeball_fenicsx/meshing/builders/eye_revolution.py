@@ -16,7 +16,8 @@ Around given meridians (``graded_azimuths``: a radial sponge's sides and its sut
 buckle_sutures.py) the azimuths are graded as the meridian's columns are at the circles of
 latitude (eye_meridian.py): measured along the equator, the spacing is ``FINE_SPACING`` (over
 ``refine``) at each such meridian and grows by ``GRADING`` per mm away from the nearest, up to the
-usual 2 pi R_o / n_circ; the azimuths 0 and pi stay nodes (the section pictures cut the plane
+usual 2 pi R_o / n_circ (lines closer than FINE_SPACING / 2 share a node, as the meridian's
+circles share a column); the azimuths 0 and pi stay nodes (the section pictures cut the plane
 y = 0), and the count is raised to a multiple of 8 for the cores. A core's square still has its
 boundary nodes evenly spread, so its rings turn them onto the graded azimuths: the square is
 smaller (``GRADED_CORE_SQUARE``), its nodes are first moved out onto a circle (``ROUND``), and from
@@ -24,7 +25,7 @@ there each node's angle changes in proportion to the logarithm of the radius, so
 quadrilaterals are sheared alike, with a ring per ``MAX_RING_TURN`` of the largest turn (each node
 goes to the graded azimuth the same number of places on, the shift that turns the nodes least).
 Such a core has (N / 4)^2 quadrilaterals in its square and a few rings of N: with N = 72 on the
-default eye graded around a radial sponge, about a third of the mesh's hexahedra are in the cores.
+default eye graded around a radial sponge, over a third of the mesh's hexahedra are in the cores.
 """
 import math
 
@@ -49,15 +50,16 @@ from .eye_meridian import (
 )
 from .hexes import corner_jacobians, hex_grid
 
-MAX_RING_TURN = math.radians(30.0)  # the largest turn of a graded core's ring about the axis
-GRADED_CORE_SQUARE = 0.2  # a graded core's square, smaller, so that its rings have room to turn ...
-ROUND = 0.35              # ... from a circle just outside it
+MAX_RING_TURN = math.radians(20.0)  # the largest turn of a graded core's ring about the axis
+GRADED_CORE_SQUARE = 0.14  # a graded core's square, smaller, so that its rings have room to turn ...
+ROUND = 0.25              # ... from a circle just outside it
 
 
 def _disc(n_circ, rings, azimuths=None):
     """Butterfly mesh of the unit disc: a square of (n_circ / 4)^2 quadrilaterals inside ``rings``
     rings of n_circ quadrilaterals, whose outer nodes are at angles 2 pi k / n_circ, or at the
-    graded ``azimuths`` (n_circ of them; then with rings enough to turn to them: :func:`_turns`).
+    graded ``azimuths`` (n_circ of them; then a rounding ring and at least ``rings`` more, enough to
+    turn to them: :func:`_turns`).
 
     Returns:
         ``(points, quads)``: coordinates, shape ``(N, 2)``, and counter-clockwise quadrilaterals.
@@ -125,13 +127,14 @@ def node_azimuths(n_circ: int, sector_deg: float, graded=(), radius: float = 1.0
 
 def _graded_azimuths(n_circ, lines, radius, refine):
     """The whole circle's azimuths graded around ``lines`` (rad, in [0, 2 pi)): each piece between two
-    breaks (the lines and the azimuths 0 and pi, but a line within FINE_SPACING of a break before it) is
+    breaks (the lines and the azimuths 0 and pi, but a line within FINE_SPACING / 2 of a break before it) is
     divided where equal steps of the integral of 1 / spacing fall, and the pieces whose steps are
-    longest are given one more until the count is a multiple of 8."""
+    longest are given one more until the count is a multiple of 8. Two lines just over FINE_SPACING / 2
+    apart (a sponge's bites at two latitudes) leave an element that long between them."""
     fine = FINE_SPACING / refine / radius  # rad
     breaks = [0.0, np.pi]
     for line in sorted(lines):
-        if min(abs(math.remainder(line - b, 2 * np.pi)) for b in breaks) > fine:
+        if min(abs(math.remainder(line - b, 2 * np.pi)) for b in breaks) > fine / 2:
             breaks.append(line)
     breaks = np.sort(breaks)
     pieces = [np.linspace(a, b, 401) for a, b in zip(breaks, [*breaks[1:], 2 * np.pi])]
