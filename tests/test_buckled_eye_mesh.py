@@ -492,10 +492,10 @@ def test_the_eye_is_graded_around_a_radial_sponges_sutures():
     """A radial sponge (5 mm wide on its inner surface, radius R_o + gap, at 45 degrees) tied by two
     sutures across it: the eye is graded across the meridians at the sponge's sides and at the
     bites' meridians, suture_width / 2 = 2.5 R_o / (R_o + gap) + SUTURE_MARGIN mm along each
-    suture's circle of latitude from the middle. Each is a node azimuth, or within 0.05 mm of
-    another's; along the equator the elements either side of a node's line are 0.10-0.15 mm long, or
-    as long as the gap to the next line where that is shorter (the two bites of one side, at two
-    latitudes, are 0.054 mm apart on this eye), and neighbours differ by at most 1.8 times
+    suture's circle of latitude from the middle. Each is a node azimuth (the two bites of one side,
+    at two latitudes, are 0.054 mm apart on this eye: lines closer than 0.05 mm share a node, as two
+    lines 0.04 mm apart do and two 0.06 mm apart do not); along the equator the elements either side
+    of a line are 0.10-0.15 mm long, but one from a line to the next, and neighbours differ by at most 1.8 times
     (1.5 by the growth, more where a piece's count is rounded), but beside an element between two lines;
     there are nodes at 0 and 180 degrees (the section pictures), a multiple of 8 in all; and the
     cores, which turn the even azimuths of their square onto the graded ones, keep every corner's
@@ -513,18 +513,18 @@ def test_the_eye_is_graded_around_a_radial_sponges_sutures():
     azimuths = np.degrees(node_azimuths(N_CIRC, 360.0, np.radians(lines), ro))
     assert len(azimuths) % 8 == 0 and azimuths[0] == 0.0 and np.min(np.abs(azimuths - 180.0)) < 1e-12
     length = np.radians(np.diff(np.append(azimuths, 360.0))) * ro  # along the equator
-    mm = math.pi / 180 * ro  # per degree, along the equator
-    on_nodes = [line for line in lines if np.min(np.abs(azimuths - line)) < 1e-9]
-    for line in lines:  # a line within 0.05 mm of another one's node shares it
-        assert np.min(np.abs(np.subtract(on_nodes, line))) * mm <= 0.05
-    for line in on_nodes:
-        at = int(np.argmin(np.abs(azimuths - line)))
-        nearest = min([abs(other - line) * mm for other in on_nodes if other != line])
-        assert np.all((min(0.10, nearest) - 1e-9 <= length[at - 1:at + 1]) & (length[at - 1:at + 1] <= 0.15))
+    assert all(np.min(np.abs(azimuths - line)) < 1e-9 for line in lines)  # 0.054 mm apart at the least
+    on_line = np.min(np.abs(azimuths[:, None] - np.array(lines)), axis=1) < 1e-9
+    short = on_line & np.roll(on_line, -1)  # an element from one line to the next
+    for at in np.flatnonzero(on_line):
+        for element in (at - 1, at):
+            assert (length[element] >= 0.10 or short[element]) and length[element] <= 0.15
     ratio = length / np.roll(length, 1)
-    on_line = np.isin(np.round(azimuths, 9), np.round(on_nodes, 9))
-    short = on_line & np.roll(on_line, -1)  # an element from one line to the next: left out
     assert np.all(((1 / 1.8 < ratio) & (ratio < 1.8))[~(short | np.roll(short, 1))])
+    fine = 0.1 / ro  # rad: FINE_SPACING along the equator
+    for apart, nodes in ((0.4, 1), (0.6, 2)):  # lines closer than half of it share a node
+        pair = np.radians(90.0) + np.array([0.0, apart * fine])
+        assert np.sum(np.min(np.abs(node_azimuths(N_CIRC, 360.0, pair, ro)[:, None] - pair), axis=0) < 1e-12) == nodes
     mesh, _ = buckled_eye.buckled_eye_geometry(**sponge, graded_azimuths=lines)
     assert mesh.info["min_scaled_jacobian"] > eye.MIN_SCALED_JACOBIAN
     assert mesh.info["azimuths"] == len(azimuths)
