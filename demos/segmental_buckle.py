@@ -56,17 +56,12 @@ indentation = final["eye"]["buckle_height_mm"] - before["eye"]["buckle_height_mm
 # that far if the sclera's bites held still and the tire did not deform; they do not (the bites
 # are pulled out, the tire is squeezed), so the indentation is below this bound.
 
+# `Suture.radial_push` gives s / |e . r| for each string, from the means of its bites' points
+# (the sclera's centre is the origin).
+
 # +
-def pushed_in(suture):
-    """s / (e . r) for the string from its bite (first point) to the tire (second point)."""
-    first, second = suture.a.reference, suture.b.reference  # the ends: the means of their bites' points
-    e = (second - first) / np.linalg.norm(second - first)
-    r = second / np.linalg.norm(second)  # the sclera's centre is the origin
-    return suture.shortening / abs(e @ r)
-
-
 strings = [f for f in scene.features if isinstance(f, Suture)]
-kinematic = sum(f.share * pushed_in(f) for f in strings) / sum(f.share for f in strings)
+kinematic = sum(f.share * f.radial_push() for f in strings) / sum(f.share for f in strings)
 indentation_ratio = indentation / kinematic
 # -
 

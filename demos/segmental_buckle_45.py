@@ -95,18 +95,10 @@ opposite_ratio_max = max(opposite_ratio.values())
 # As in `demos/segmental_buckle.py`: a string shortened by s, from a bite that stays put to a
 # buckle point that moves along the radius r, pushes that point in by s / (e . r) (e: the
 # string's direction), to first order; the bites pulled out and the buckle squeezed take some of
-# it, so the indentation is below this kinematic bound.
+# it, so the indentation is below this kinematic bound (`Suture.radial_push`).
 
 # +
-def pushed_in(suture):
-    """s / (e . r) for the string from its bite (first point) to the buckle (second point)."""
-    first, second = suture.a.reference, suture.b.reference  # the ends: the means of their bites' points
-    e = (second - first) / np.linalg.norm(second - first)
-    r = second / np.linalg.norm(second)  # the sclera's centre is the origin
-    return suture.shortening / abs(e @ r)
-
-
-kinematic = {b: np.mean([pushed_in(f) for f in strings[b]]) for b in scenes}
+kinematic = {b: np.mean([f.radial_push() for f in strings[b]]) for b in scenes}
 indentation_ratio = {b: indentation[b] / kinematic[b] for b in scenes}
 indentation_ratio_min, indentation_ratio_max = min(indentation_ratio.values()), max(indentation_ratio.values())
 # -

@@ -209,9 +209,13 @@ def test_rejects_bad_parameters(options, fragment):
 def test_cli_and_section_picture(tmp_path):
     folder = pathlib.Path(COMM.bcast(str(tmp_path), root=0))
     path = folder / "eye.msh"
-    eye.main(["--out", str(path), "--sector-deg", "90", "--n-circ", "16", "--detachment", "0", "0", "25", "0.1"])
+    eye.main(["--out", str(path), "--sector-deg", "90", "--n-circ", "16", "--detachment", "0", "0", "25", "0.1",
+              "--graded-at", "12.5", "16.0"])
     data = load_mesh(path)
     assert set(data.regions) == TISSUES
+    detachment = {"polar_deg": 0.0, "azimuth_deg": 0.0, "extent_deg": 25.0, "gap": 0.1}
+    graded = eye.eye_geometry(sector_deg=90, n_circ=16, detachment=detachment, graded_at=[12.5, 16.0]).info
+    assert data.mesh.topology.index_map(3).size_global == graded["hexahedra"] > 904  # 904 ungraded
     assert {"retina_outer", "choroid_inner", "cut_0", "cut_1"} <= set(data.surfaces)
     picture = folder / "section.png"
     eye_section_png(data, picture)

@@ -225,6 +225,15 @@ class Suture(Feature):
         dofs = np.unique(np.concatenate(ends))
         return np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs))
 
+    def radial_push(self) -> float:
+        """How far the string's shortening s pushes its second end in along the radius r from the
+        origin, to first order, if its first end (the bite) held still and the body of the second did
+        not deform: s / |e . r|, e the string's direction (in the reference configuration, between its
+        ends' means). A kinematic bound on a buckle's indentation (demos/segmental_buckle.py)."""
+        first, second = self.a.reference, self.b.reference
+        e = (second - first) / np.linalg.norm(second - first)
+        return self.shortening / abs(e @ (second / np.linalg.norm(second)))
+
     def report(self) -> dict:
         """The thread's tension, current and initial length, and the force the suture puts on the
         body of its second end in the model: the string's, -share T e, and the loop's hold (at the

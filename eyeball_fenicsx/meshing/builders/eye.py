@@ -312,6 +312,10 @@ EYE_OPTIONS = {
     "n_circ": dict(type=int, default=None, help="sectors of the full circle"),
     "wall_layers": dict(type=int, default=1, help="multiplies the elements through the wall"),
     "sector_deg": dict(type=float, default=360.0, choices=_SECTORS),
+    "graded_at": dict(type=float, nargs="+", default=(), metavar="MM",
+                      help="circles of latitude to grade the eye at, mm behind the limbus"),
+    "graded_azimuths": dict(type=float, nargs="+", default=(), metavar="DEG",
+                            help="meridians to grade the eye at, degrees of azimuth (whole eye)"),
 }
 main = builder_main(_build_from_cli, "eyeball_fenicsx.meshing.builders.eye", __doc__, **EYE_OPTIONS,
                     detachment=dict(type=float, nargs=4, metavar=("POLAR_DEG", "AZIMUTH_DEG", "EXTENT_DEG", "GAP"),
