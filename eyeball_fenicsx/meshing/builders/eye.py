@@ -41,7 +41,7 @@ from ...checks import is_number
 from ...errors import SceneError
 from .eye_detachment import DETACHMENT_KEYS, check_detachment, detach
 from .eye_meridian import ANTERIOR_CHAMBER_DEPTH, CILIARY_THICKNESS, CORNEA_RADIUS, N_CIRC, Meridian
-from .eye_revolution import assemble_eye, node_azimuths
+from .eye_revolution import assemble_eye
 from .eye_surfaces import TOLERANCE, check_closed, name_surfaces
 from .hexes import add_hex_model, builder_main, check, corner_jacobians, enclosed_volume, msh_writer
 
@@ -144,7 +144,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
     p, m = checked_parameters(p)
     if detachment is not None:
         detachment = check_detachment(detachment, m, p["sector_deg"])
-    nodes, hexes, regions = assemble_eye(m, p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]))
+    nodes, hexes, regions, azimuths = assemble_eye(m, p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]))
     if detachment is not None:
         nodes, hexes = detach(nodes, hexes, regions, m, detachment, p["sector_deg"])
     _, scaled = corner_jacobians(nodes, hexes)
@@ -153,7 +153,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
                          f"({_distortion_cause(p, detachment)})")
     surfaces = name_surfaces(nodes, hexes, regions, m, p["sector_deg"])
     check_closed(nodes, surfaces, p["sector_deg"], detachment is not None)
-    info = _statistics(nodes, hexes, regions, surfaces, scaled, m, p)
+    info = {**_statistics(nodes, hexes, regions, surfaces, scaled, m, p), "azimuths": len(azimuths)}
     if detachment is not None:
         info["detachment"] = detachment
     order = ["cornea", "sclera", "ciliary_body", "choroid", "retina", "optic_nerve", "lens", "zonule"]
@@ -185,8 +185,6 @@ def _statistics(nodes, hexes, regions, surfaces, scaled, m, p):
         "limbus": (m.rho_l, float(m.outer(m.s_l)[0][1])),
         "ora_serrata_deg": math.degrees(m.s_ora / m.Ro),
         "optic_nerve_end_z": m.z_nerve_end, "n_circ": p["n_circ"],
-        "azimuths": len(node_azimuths(p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]), m.Ro,
-                                      p["refine"])),  # node planes, with a wedge's both ends
     }
 
 

@@ -113,6 +113,24 @@ LENS_LAYERS, ZONULE_COLUMNS, LENS_COLUMNS, NERVE_LAYERS = 4, 3, 4, 3
 N_CIRC = 40         # sectors of the full circle at refine = 1
 
 
+def graded_spacing(distance: np.ndarray, coarse: float) -> np.ndarray:
+    """The element length (mm, at refine = 1) at ``distance`` mm from the nearest graded line:
+    ``FINE_SPACING`` there, longer by ``GRADING`` per mm away, up to ``coarse``."""
+    return np.minimum(coarse, FINE_SPACING + GRADING * distance)
+
+
+def integrated(a: float, b: float, density) -> tuple[np.ndarray, np.ndarray]:
+    """401 points x of [a, b] and the integral of ``density`` from a to each (trapezoidal rule)."""
+    x = np.linspace(a, b, 401)
+    d = density(x)
+    return x, np.concatenate([[0.0], np.cumsum((d[1:] + d[:-1]) / 2 * np.diff(x))])
+
+
+def divided(x: np.ndarray, integral: np.ndarray, count: int) -> np.ndarray:
+    """The count + 1 points of x (ends included) where ``count`` equal steps of the integral fall."""
+    return np.interp(np.linspace(0.0, integral[-1], count + 1), integral, x)
+
+
 def smoothstep(x: np.ndarray) -> np.ndarray:
     """0 for x <= 0, 1 for x >= 1, sin^2(pi x / 2) between: C1 with zero slope at both ends."""
     return np.sin(np.pi / 2 * np.clip(x, 0.0, 1.0)) ** 2
@@ -291,8 +309,7 @@ class Meridian:
         s = np.asarray(s, dtype=float)
         if not len(self.graded):
             return np.full_like(s, SPACING)
-        distance = np.min(np.abs(s[..., None] - self.graded), axis=-1)
-        return np.minimum(SPACING, FINE_SPACING + GRADING * distance)
+        return graded_spacing(np.min(np.abs(s[..., None] - self.graded), axis=-1), SPACING)
 
     def _graded_columns(self, start, stop):
         """The columns of (start, stop], about ``spacing`` (over ``refine``) apart: the graded lines
@@ -304,11 +321,8 @@ class Meridian:
                 ends.append(line)
         columns = []
         for a, b in zip([start, *ends], [*ends, stop]):
-            s = np.linspace(a, b, 401)
-            density = self._stretch(s) / self.spacing(s)
-            steps = np.concatenate([[0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(s))])
-            count = max(1, round(steps[-1])) * self.p["refine"]
-            columns.append(np.interp(np.linspace(0.0, steps[-1], count + 1)[1:], steps, s))
+            s, integral = integrated(a, b, lambda s: self._stretch(s) / self.spacing(s))
+            columns.append(divided(s, integral, max(1, round(integral[-1])) * self.p["refine"])[1:])
         return np.concatenate(columns)
 
     def _columns(self):

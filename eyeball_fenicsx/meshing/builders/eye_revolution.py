@@ -39,7 +39,6 @@ from .eye_meridian import (
     CORE_SQUARE,
     CORNEA_CORE,
     FINE_SPACING,
-    GRADING,
     LENS_COLUMNS,
     LENS_CORE,
     LENS_LAYERS,
@@ -47,6 +46,9 @@ from .eye_meridian import (
     SCLERA_LAYERS,
     ZONULE_COLUMNS,
     Meridian,
+    divided,
+    graded_spacing,
+    integrated,
 )
 from .hexes import corner_jacobians, hex_grid
 
@@ -137,17 +139,16 @@ def _graded_azimuths(n_circ, lines, radius, refine):
         if min(abs(math.remainder(line - b, 2 * np.pi)) for b in breaks) > fine / 2:
             breaks.append(line)
     breaks = np.sort(breaks)
-    pieces = [np.linspace(a, b, 401) for a, b in zip(breaks, [*breaks[1:], 2 * np.pi])]
-    steps = []
-    for phi in pieces:
+
+    def density(phi):  # elements per radian
         away = np.min(np.abs(np.remainder(phi[:, None] - lines + np.pi, 2 * np.pi) - np.pi), axis=1)
-        density = 1.0 / np.minimum(2 * np.pi / n_circ, fine + GRADING * away / refine)
-        steps.append(np.concatenate([[0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(phi))]))
-    counts = np.array([max(1, round(step[-1])) for step in steps])
+        return radius * refine / graded_spacing(radius * away, 2 * np.pi * radius * refine / n_circ)
+
+    pieces = [integrated(a, b, density) for a, b in zip(breaks, [*breaks[1:], 2 * np.pi])]
+    counts = np.array([max(1, round(integral[-1])) for _, integral in pieces])
     while counts.sum() % 8:
-        counts[np.argmax([step[-1] / count for step, count in zip(steps, counts)])] += 1
-    return np.concatenate([np.interp(np.linspace(0.0, step[-1], count + 1)[:-1], step, phi)
-                           for phi, step, count in zip(pieces, steps, counts)])
+        counts[np.argmax([integral[-1] / count for (_, integral), count in zip(pieces, counts)])] += 1
+    return np.concatenate([divided(phi, integral, count)[:-1] for (phi, integral), count in zip(pieces, counts)])
 
 
 def cos_sin(azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -166,6 +167,7 @@ class _Assembly:
         self.full = sector_deg >= 360.0
         refine = m.p["refine"]
         azimuths = node_azimuths(n_circ, sector_deg, graded, m.Ro, refine)
+        self.azimuths = azimuths
         self.cos, self.sin = cos_sin(azimuths)
         points, quads = _disc(len(azimuths), refine, azimuths) if len(graded) else _disc(n_circ, refine)
         if not self.full:  # keep the cells of the wedge 0 <= azimuth <= sector
@@ -233,9 +235,10 @@ class _Assembly:
 
 
 def assemble_eye(m: Meridian, n_circ: int, sector_deg: float,
-                 graded=()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 graded=()) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Assemble the whole eye from the meridian ``m``, revolved over :func:`node_azimuths` (graded
-    around the azimuths ``graded``, rad, on the whole eye): nodes, hexahedra and region per hexahedron."""
+    around the azimuths ``graded``, rad, on the whole eye): nodes, hexahedra, region per hexahedron,
+    and the node azimuths."""
     r = m.p["refine"]
     ns, ni = SCLERA_LAYERS * m.wall, len(m.fractions) - 1
     nch = CHOROID_LAYERS * m.wall
@@ -270,4 +273,4 @@ def assemble_eye(m: Meridian, n_circ: int, sector_deg: float,
                ["optic_nerve"] * nerve_layers + ["sclera"] * ns + list(retina_or_choroid))
     parts.core(CORNEA_CORE, [lambda q, j=j: m.shell_row(m.S - q, j) for j in range(ns + 1)], ["cornea"] * ns)
     parts.core(LENS_CORE, [lambda q, j=j: m.lens_row(q, j) for j in range(nl + 1)], ["lens"] * nl)
-    return parts.merged()
+    return (*parts.merged(), parts.azimuths)
