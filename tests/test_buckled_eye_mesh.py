@@ -20,7 +20,7 @@ from eyeball_fenicsx.errors import SceneError
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.builders.buckle_sutures import BITE_LENGTH, BITE_SPACING
 from eyeball_fenicsx.meshing.builders.eye_meridian import SPACING
-from eyeball_fenicsx.meshing.builders.eye_revolution import node_azimuths
+from eyeball_fenicsx.meshing.builders.eye_revolution import _butterfly, _disc, node_azimuths
 from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
 from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 from eyeball_fenicsx.scene.loader import load_scene
@@ -543,6 +543,39 @@ def test_graded_cores_keep_their_shape_wherever_the_sponge_lies(width, azimuth):
     grading = buckled_eye.suture_grading(sponge, buckled_eye.suture_points(sponge, count=2))
     mesh, _ = buckled_eye.buckled_eye_geometry(**sponge, **grading)
     assert mesh.info["min_scaled_jacobian"] > eye.MIN_SCALED_JACOBIAN
+
+
+@pytest.mark.parametrize("n_circ", [N_CIRC, 40])
+def test_graded_cores_take_fewer_azimuths_inside(n_circ):
+    """A graded core's disc (before it is swept through the core's layers): inside transition rings
+    of 1-to-3 templates it has fewer azimuths than the graded circle, so at most 0.7 times the
+    quadrilaterals of a butterfly disc turned onto the graded circle's N azimuths directly (a square
+    of N / 4 a side, the construction before; 0.52 and 0.63 here). It still tiles the
+    polygon of the graded azimuths on the unit circle (its area, 1/2 sum sin(d phi), to round-off:
+    no overlap, no gap), every quadrilateral counter-clockwise and well shaped, its boundary exactly
+    the polygon's N edges and every other edge shared by two quadrilaterals (no hanging node)."""
+    sponge = {"n_circ": n_circ, "sector_deg": 360.0, "sponge": {"azimuth_deg": 45.0}}
+    lines = buckled_eye.suture_grading(sponge, buckled_eye.suture_points(sponge, count=2))["graded_azimuths"]
+    azimuths = node_azimuths(n_circ, 360.0, np.radians(lines), buckled_eye.buckle_layout(**sponge).globe_radius)
+    points, quads = _disc(n_circ, 1, azimuths)
+    n = len(azimuths)
+    assert len(quads) < 0.7 * len(_butterfly(n, 1, azimuths)[1])
+    corners = points[quads]
+    x, y = corners[..., 0], corners[..., 1]
+    area = 0.5 * np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1)
+    assert np.all(area > 0)
+    assert area.sum() == pytest.approx(0.5 * np.sum(np.sin(np.diff(np.append(azimuths, 2 * np.pi)))), rel=1e-12)
+    sides = np.roll(corners, -1, axis=1) - corners
+    cross = sides[..., 0] * np.roll(sides, 1, axis=1)[..., 1] - sides[..., 1] * np.roll(sides, 1, axis=1)[..., 0]
+    scaled = -cross / (np.linalg.norm(sides, axis=-1) * np.linalg.norm(np.roll(sides, 1, axis=1), axis=-1))
+    assert scaled.min() > 0.3
+    edges, uses = np.unique(np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1),
+                            axis=0, return_counts=True)
+    assert set(uses) == {1, 2}
+    boundary = points[edges[uses == 1]]
+    assert np.allclose(np.linalg.norm(boundary, axis=-1), 1.0)
+    assert sorted(np.round(np.mod(np.arctan2(boundary[..., 1], boundary[..., 0]), 2 * np.pi), 12).ravel()) == \
+        pytest.approx(np.sort(np.repeat(azimuths, 2)), abs=1e-11)
 
 
 def test_circles_closer_than_the_fine_spacing_share_a_column():

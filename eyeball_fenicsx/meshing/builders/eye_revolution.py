@@ -18,15 +18,23 @@ latitude (eye_meridian.py): measured along the equator, the spacing is ``FINE_SP
 ``refine``) at each such meridian and grows by ``GRADING`` per mm away from the nearest, up to the
 usual 2 pi R_o / n_circ (lines closer than FINE_SPACING / 2 share a node, as the meridian's
 circles share a column); the azimuths 0 and pi stay nodes (the section pictures cut the plane
-y = 0), and the count is raised to a multiple of 8 for the cores. A core's square still has its
-boundary nodes evenly spread, so its rings turn them onto the graded azimuths: the square is
-smaller (``GRADED_CORE_SQUARE``), its nodes are first moved out onto a circle (``ROUND``), and from
-there each node's angle changes in proportion to the logarithm of the radius, so that every ring's
-quadrilaterals are sheared alike, with a ring per ``MAX_RING_TURN`` of the largest turn (each node
-goes to the graded azimuth the same number of places on, the shift that turns the nodes least).
-Such a core has (N / 4)^2 quadrilaterals in its square and a few rings of N: with N = 72 on the
-default eye graded around a radial sponge, over a third of the mesh's hexahedra are in the cores.
+y = 0), and the count is raised to a multiple of 8 for the cores.
+
+A core does not need the azimuths that crowd at the sponge: going round from azimuth 0, every
+three graded elements that together are no wider than the even 2 pi / n_circ become one element
+of a smaller disc, joined to the graded circle by a transition ring of conforming 1-to-3
+templates (one quadrilateral against the smaller disc, three against the graded circle, and two
+nodes between them: four quadrilaterals; hexahedra, as everywhere in a core, by sweeping the disc
+through the core's layers), and so on inwards while three merge. The innermost disc's square
+still has its boundary nodes evenly spread, so its rings turn them onto the azimuths left: the
+square is smaller (``GRADED_CORE_SQUARE``), its nodes are first moved out onto a circle
+(``ROUND``), and from there each node's angle changes in proportion to the logarithm of the radius,
+so that every ring's quadrilaterals are sheared alike, with a ring per ``MAX_RING_TURN`` of the
+largest turn (each node goes to the graded azimuth the same number of places on, the shift that
+turns the nodes least). On the default eye graded around a radial sponge, 72 azimuths become 56,
+then 48: a core disc of 428 quadrilaterals instead of 684, a quarter of the mesh's hexahedra.
 """
+import itertools
 import math
 
 import numpy as np
@@ -55,17 +63,38 @@ from .hexes import corner_jacobians, hex_grid
 MAX_RING_TURN = math.radians(20.0)  # the largest turn of a graded core's ring about the axis
 GRADED_CORE_SQUARE = 0.14  # a graded core's square, smaller, so that its rings have room to turn ...
 ROUND = 0.25              # ... from a circle just outside it
+TEMPLATE_DEPTH = 2.0  # a graded core's transition ring is this many times as deep as its merged elements' median width,
+SPREAD = 4.0          # ... and merges none wider than this many times the narrowest it merges;
+MIDDLE_DEPTHS = np.linspace(0.3, 0.7, 5)  # its templates' middle nodes: the best of these depths (of the ring's)
+MIDDLE_BLENDS = np.linspace(0.0, 1.0, 5)  # ... and of these steps from their graded azimuths to the even thirds
 
 
 def _disc(n_circ, rings, azimuths=None):
     """Butterfly mesh of the unit disc: a square of (n_circ / 4)^2 quadrilaterals inside ``rings``
-    rings of n_circ quadrilaterals, whose outer nodes are at angles 2 pi k / n_circ, or at the
-    graded ``azimuths`` (n_circ of them; then a rounding ring and at least ``rings`` more, enough to
-    turn to them: :func:`_turns`).
+    rings of n_circ quadrilaterals, whose outer nodes are at angles 2 pi k / n_circ. Given the
+    graded ``azimuths``, the outer nodes are at those: a transition ring (:func:`_transition`) takes
+    a smaller disc's nodes at some of them (:func:`_merged_triples`) out to all of them, its depth
+    ``TEMPLATE_DEPTH`` times the merged graded elements' median width; and so on inwards while
+    triples merge; the innermost disc is :func:`_butterfly`'s, turned onto the azimuths left.
 
     Returns:
         ``(points, quads)``: coordinates, shape ``(N, 2)``, and counter-clockwise quadrilaterals.
     """
+    if azimuths is None:
+        return _butterfly(n_circ, rings)
+    kept = _merged_triples(azimuths, n_circ)
+    if len(kept) == len(azimuths):
+        return _butterfly(len(kept), rings, azimuths)
+    points, quads = _disc(n_circ, rings, azimuths[kept])
+    merged = np.diff(np.append(azimuths[kept], 2 * np.pi))[np.diff(np.append(kept, len(azimuths))) == 3]
+    inside = 1.0 - TEMPLATE_DEPTH * np.median(merged) / 3  # the smaller disc's radius
+    return _transition(inside * points, quads, azimuths, kept, inside)
+
+
+def _butterfly(n_circ, rings, azimuths=None):
+    """The butterfly disc of :func:`_disc`, its outer nodes at 2 pi k / n_circ, or at the graded
+    ``azimuths`` (n_circ of them; then a rounding ring and at least ``rings`` more, enough to turn
+    to them: :func:`_turns`)."""
     m = n_circ // 4
     ticks = (CORE_SQUARE if azimuths is None else GRADED_CORE_SQUARE) * np.linspace(-1.0, 1.0, m + 1)
     grid = np.arange((m + 1) ** 2).reshape(m + 1, m + 1)  # grid[i, j] at (ticks[i], ticks[j])
@@ -91,6 +120,80 @@ def _disc(n_circ, rings, azimuths=None):
     points = np.concatenate(points)
     points[np.abs(points) < 1e-15] = 0.0
     return points, np.concatenate(quads)
+
+
+def _merged_triples(azimuths, n_circ):
+    """The indices of the graded ``azimuths`` that a graded core's inner disc keeps: going round from
+    azimuth 0, every three graded elements that together span no more than the even 2 pi / n_circ
+    become one, the others stay; those wider than ``SPREAD`` times the narrowest merged are split
+    again (they merge in the next ring inwards, a deeper one), and so are the widest left until
+    the count is a multiple of 8 (an even square); at least four merge if four can."""
+    n, i, starts = len(azimuths), 0, []
+    closed = np.append(azimuths, 2 * np.pi)
+    while i + 3 <= n:
+        if closed[i + 3] - closed[i] <= 2 * np.pi / n_circ * (1 + 1e-9):
+            starts.append(i)
+            i += 3
+        else:
+            i += 1
+    starts = np.array(starts, dtype=int)
+    width = closed[starts + 3] - closed[starts]
+    widest_last = np.argsort(width, kind="stable")
+    count = max(np.sum(width <= SPREAD * width.min(initial=np.inf)), min(4, len(starts)))
+    starts = np.sort(starts[widest_last[:count - count % 4]])
+    keep = np.ones(n, dtype=bool)
+    keep[np.concatenate([starts + 1, starts + 2])] = False
+    return np.flatnonzero(keep)
+
+
+def _transition(points, quads, azimuths, kept, inside):
+    """The ring from a disc of radius ``inside`` (``points``, ``quads``; its last len(kept) points its
+    outer circle, at azimuths[kept]) out to the unit circle at every one of the ``azimuths``. An
+    inner element over one graded element is one quadrilateral; over three, the 1-to-3 template of
+    four, whose two middle nodes lie where the template's worst corner is best, among
+    ``MIDDLE_DEPTHS`` x ``MIDDLE_BLENDS``: between the azimuths of the graded nodes they face and
+    the inner element's thirds. The unit circle's nodes come last, in the azimuths' order."""
+    n, total = len(azimuths), len(points)
+    inner = total - len(kept) + np.arange(len(kept))  # their node k is at azimuths[kept[k + shift]] (_turns)
+    first = np.arctan2(points[inner[0], 1], points[inner[0], 0])
+    inner = np.roll(inner, np.argmin(np.abs(np.remainder(azimuths[kept] - first + np.pi, 2 * np.pi) - np.pi)))
+    span = np.diff(np.append(kept, n))
+    templates = kept[span == 3]
+    between = (templates[:, None] + [1, 2]).ravel()
+    middle = total + np.arange(len(between)).reshape(-1, 2)  # the templates' middle nodes
+    outer = total + len(between) + np.arange(n)
+    ring = np.column_stack([inner, outer[kept], outer[(kept + 1) % n], np.roll(inner, -1)])[span == 1]
+    e, f = inner[span == 3], np.roll(inner, -1)[span == 3]
+    a, b, c, d = (outer[(templates + k) % n] for k in range(4))
+    p, q = middle[:, 0], middle[:, 1]
+    new_quads = np.concatenate([ring, *(np.column_stack(corners) for corners in
+                                        ([e, a, b, p], [p, b, c, q], [q, c, d, f], [e, p, q, f]))])
+    circle = np.stack([np.cos(azimuths), np.sin(azimuths)], axis=-1)
+    closed = np.append(azimuths, 2 * np.pi)
+    thirds = closed[templates, None] + (closed[templates + 3] - closed[templates])[:, None] * [1 / 3, 2 / 3]
+    e_, a_, b_, c_, d_, f_ = points[e], *(circle[(templates + k) % n] for k in range(4)), points[f]
+    best, quality = None, -np.inf
+    for depth, toward_thirds in itertools.product(MIDDLE_DEPTHS, MIDDLE_BLENDS):
+        angles = toward_thirds * thirds + (1 - toward_thirds) * azimuths[between].reshape(-1, 2)
+        pq = (1 - depth * (1 - inside)) * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+        p_, q_ = pq[:, 0], pq[:, 1]
+        worst = np.min([_worst_corner(np.stack(quad, axis=1)) for quad in
+                        ([e_, a_, b_, p_], [p_, b_, c_, q_], [q_, c_, d_, f_], [e_, p_, q_, f_])], axis=0)
+        better = worst > quality
+        best = pq if best is None else np.where(better[:, None, None], pq, best)
+        quality = np.maximum(quality, worst)
+    points = np.concatenate([points, best.reshape(-1, 2), circle])
+    points[np.abs(points) < 1e-15] = 0.0
+    return points, np.concatenate([quads, new_quads])
+
+
+def _worst_corner(quads):
+    """The smallest scaled Jacobian (sine of the angle) at the corners of counter-clockwise
+    quadrilaterals ``quads``, shape ``(count, 4, 2)``."""
+    out = np.roll(quads, -1, axis=1) - quads
+    back = np.roll(quads, 1, axis=1) - quads
+    cross = out[..., 0] * back[..., 1] - out[..., 1] * back[..., 0]
+    return np.min(cross / (np.linalg.norm(out, axis=-1) * np.linalg.norm(back, axis=-1)), axis=1)
 
 
 def _turns(square, azimuths, rings):
@@ -169,7 +272,7 @@ class _Assembly:
         azimuths = node_azimuths(n_circ, sector_deg, graded, m.Ro, refine)
         self.azimuths = azimuths
         self.cos, self.sin = cos_sin(azimuths)
-        points, quads = _disc(len(azimuths), refine, azimuths) if len(graded) else _disc(n_circ, refine)
+        points, quads = _disc(n_circ, refine, azimuths if len(graded) else None)
         if not self.full:  # keep the cells of the wedge 0 <= azimuth <= sector
             centre = points[quads].mean(axis=1)
             azimuth = np.mod(np.arctan2(centre[:, 1], centre[:, 0]), 2 * np.pi)
