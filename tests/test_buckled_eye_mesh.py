@@ -498,8 +498,8 @@ def test_the_eye_is_graded_around_a_radial_sponges_sutures():
     of a line are 0.10-0.15 mm long, but one from a line to the next, and neighbours differ by at most 1.8 times
     (1.5 by the growth, more where a piece's count is rounded), but beside an element between two lines;
     there are nodes at 0 and 180 degrees (the section pictures), a multiple of 8 in all; and the
-    cores, which turn the even azimuths of their square onto the graded ones, keep every corner's
-    scaled Jacobian above the builder's bound. A tire or a band is refused on a graded eye."""
+    cores, which take fewer azimuths inside and turn the even azimuths of their square onto those,
+    keep every corner's scaled Jacobian above the builder's bound. A tire or a band is refused on a graded eye."""
     sponge = {"n_circ": N_CIRC, "sector_deg": 360.0, "sponge": {"azimuth_deg": 45.0}}
     sutures = buckled_eye.suture_points(sponge, count=2)
     lines = buckled_eye.suture_grading(sponge, sutures)["graded_azimuths"]

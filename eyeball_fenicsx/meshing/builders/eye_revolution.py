@@ -25,9 +25,10 @@ three graded elements that together are no wider than the even 2 pi / n_circ bec
 of a smaller disc, joined to the graded circle by a transition ring of conforming 1-to-3
 templates (one quadrilateral against the smaller disc, three against the graded circle, and two
 nodes between them: four quadrilaterals; hexahedra, as everywhere in a core, by sweeping the disc
-through the core's layers), and so on inwards while three merge. The innermost disc's square
-still has its boundary nodes evenly spread, so its rings turn them onto the azimuths left: the
-square is smaller (``GRADED_CORE_SQUARE``), its nodes are first moved out onto a circle
+through the core's layers), and so on inwards while three merge (a ring merges none more than
+``SPREAD`` times wider than its narrowest, leaving the wider to the deeper rings inside). The
+innermost disc's square still has its boundary nodes evenly spread, so its rings turn them onto
+the azimuths left: the square is smaller (``GRADED_CORE_SQUARE``), its nodes are first moved out onto a circle
 (``ROUND``), and from there each node's angle changes in proportion to the logarithm of the radius,
 so that every ring's quadrilaterals are sheared alike, with a ring per ``MAX_RING_TURN`` of the
 largest turn (each node goes to the graded azimuth the same number of places on, the shift that
@@ -64,7 +65,7 @@ MAX_RING_TURN = math.radians(20.0)  # the largest turn of a graded core's ring a
 GRADED_CORE_SQUARE = 0.14  # a graded core's square, smaller, so that its rings have room to turn ...
 ROUND = 0.25              # ... from a circle just outside it
 TEMPLATE_DEPTH = 2.0  # a graded core's transition ring is this many times as deep as its merged elements' median width,
-SPREAD = 4.0          # ... and merges none wider than this many times the narrowest it merges;
+SPREAD = 4.0          # ... and merges none wider than this many times the narrowest it merges (but four);
 MIDDLE_DEPTHS = np.linspace(0.3, 0.7, 5)  # its templates' middle nodes: the best of these depths (of the ring's)
 MIDDLE_BLENDS = np.linspace(0.0, 1.0, 5)  # ... and of these steps from their graded azimuths to the even thirds
 
@@ -72,22 +73,24 @@ MIDDLE_BLENDS = np.linspace(0.0, 1.0, 5)  # ... and of these steps from their gr
 def _disc(n_circ, rings, azimuths=None):
     """Butterfly mesh of the unit disc: a square of (n_circ / 4)^2 quadrilaterals inside ``rings``
     rings of n_circ quadrilaterals, whose outer nodes are at angles 2 pi k / n_circ. Given the
-    graded ``azimuths``, the outer nodes are at those: a transition ring (:func:`_transition`) takes
-    a smaller disc's nodes at some of them (:func:`_merged_triples`) out to all of them, its depth
-    ``TEMPLATE_DEPTH`` times the merged graded elements' median width; and so on inwards while
-    triples merge; the innermost disc is :func:`_butterfly`'s, turned onto the azimuths left.
+    graded ``azimuths`` (increasing from 0, a multiple of 8 of them, as :func:`node_azimuths` gives
+    them; n_circ then the eye's even count, which sets how wide merged elements may be), the outer
+    nodes are at those: a transition ring (:func:`_transition`) takes a smaller disc's nodes at some
+    of them (:func:`_kept_inside`) out to all of them, its depth ``TEMPLATE_DEPTH`` times the merged
+    elements' median width; and so on inwards while elements merge; the innermost disc is
+    :func:`_butterfly`'s, turned onto the azimuths left.
 
     Returns:
         ``(points, quads)``: coordinates, shape ``(N, 2)``, and counter-clockwise quadrilaterals.
     """
     if azimuths is None:
         return _butterfly(n_circ, rings)
-    kept = _merged_triples(azimuths, n_circ)
+    kept = _kept_inside(azimuths, n_circ)
     if len(kept) == len(azimuths):
         return _butterfly(len(kept), rings, azimuths)
     points, quads = _disc(n_circ, rings, azimuths[kept])
-    merged = np.diff(np.append(azimuths[kept], 2 * np.pi))[np.diff(np.append(kept, len(azimuths))) == 3]
-    inside = 1.0 - TEMPLATE_DEPTH * np.median(merged) / 3  # the smaller disc's radius
+    merged_widths = np.diff(np.append(azimuths[kept], 2 * np.pi))[np.diff(np.append(kept, len(azimuths))) == 3]
+    inside = 1.0 - TEMPLATE_DEPTH * np.median(merged_widths) / 3  # the smaller disc's radius
     return _transition(inside * points, quads, azimuths, kept, inside)
 
 
@@ -122,12 +125,12 @@ def _butterfly(n_circ, rings, azimuths=None):
     return points, np.concatenate(quads)
 
 
-def _merged_triples(azimuths, n_circ):
-    """The indices of the graded ``azimuths`` that a graded core's inner disc keeps: going round from
-    azimuth 0, every three graded elements that together span no more than the even 2 pi / n_circ
-    become one, the others stay; those wider than ``SPREAD`` times the narrowest merged are split
-    again (they merge in the next ring inwards, a deeper one), and so are the widest left until
-    the count is a multiple of 8 (an even square); at least four merge if four can."""
+def _kept_inside(azimuths, n_circ):
+    """The indices of the ``azimuths`` (increasing from 0) that the disc inside a transition ring keeps:
+    going round from azimuth 0, every three elements that together span no more than the even
+    2 pi / n_circ become one, the others stay; those wider than ``SPREAD`` times the narrowest
+    merged are split again (they may merge in the next ring inwards, a deeper one), but four if
+    fewer pass, and so are the widest left until the count is a multiple of 8 (an even square)."""
     n, i, starts = len(azimuths), 0, []
     closed = np.append(azimuths, 2 * np.pi)
     while i + 3 <= n:
@@ -147,12 +150,20 @@ def _merged_triples(azimuths, n_circ):
 
 
 def _transition(points, quads, azimuths, kept, inside):
-    """The ring from a disc of radius ``inside`` (``points``, ``quads``; its last len(kept) points its
+    r"""The ring from a disc of radius ``inside`` (``points``, ``quads``; its last len(kept) points its
     outer circle, at azimuths[kept]) out to the unit circle at every one of the ``azimuths``. An
-    inner element over one graded element is one quadrilateral; over three, the 1-to-3 template of
-    four, whose two middle nodes lie where the template's worst corner is best, among
-    ``MIDDLE_DEPTHS`` x ``MIDDLE_BLENDS``: between the azimuths of the graded nodes they face and
-    the inner element's thirds. The unit circle's nodes come last, in the azimuths' order."""
+    inner element e-f over one graded element is one quadrilateral; over three, a-b-c-d, the 1-to-3
+    template of four: e-a-b-p, p-b-c-q, q-c-d-f and e-p-q-f, whose middle nodes p and q lie where
+    the template's worst corner is best among ``MIDDLE_DEPTHS`` x ``MIDDLE_BLENDS`` (between the
+    azimuths of b and c and the inner element's thirds)::
+
+        a    b    c    d      (the unit circle)
+        |    |    |    |
+        |    p----q    |
+        |  /        \  |
+        e--------------f      (the circle of radius ``inside``)
+
+    The unit circle's nodes come last, in the azimuths' order."""
     n, total = len(azimuths), len(points)
     inner = total - len(kept) + np.arange(len(kept))  # their node k is at azimuths[kept[k + shift]] (_turns)
     first = np.arctan2(points[inner[0], 1], points[inner[0], 0])
@@ -171,17 +182,18 @@ def _transition(points, quads, azimuths, kept, inside):
     circle = np.stack([np.cos(azimuths), np.sin(azimuths)], axis=-1)
     closed = np.append(azimuths, 2 * np.pi)
     thirds = closed[templates, None] + (closed[templates + 3] - closed[templates])[:, None] * [1 / 3, 2 / 3]
-    e_, a_, b_, c_, d_, f_ = points[e], *(circle[(templates + k) % n] for k in range(4)), points[f]
-    best, quality = None, -np.inf
+    xe, xa, xb, xc, xd, xf = points[e], *(circle[(templates + k) % n] for k in range(4)), points[f]
+    best, quality = np.zeros((len(templates), 2, 2)), np.full(len(templates), -np.inf)
     for depth, toward_thirds in itertools.product(MIDDLE_DEPTHS, MIDDLE_BLENDS):
         angles = toward_thirds * thirds + (1 - toward_thirds) * azimuths[between].reshape(-1, 2)
-        pq = (1 - depth * (1 - inside)) * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
-        p_, q_ = pq[:, 0], pq[:, 1]
+        middles = (1 - depth * (1 - inside)) * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+        xp, xq = middles[:, 0], middles[:, 1]
         worst = np.min([_worst_corner(np.stack(quad, axis=1)) for quad in
-                        ([e_, a_, b_, p_], [p_, b_, c_, q_], [q_, c_, d_, f_], [e_, p_, q_, f_])], axis=0)
-        better = worst > quality
-        best = pq if best is None else np.where(better[:, None, None], pq, best)
+                        ([xe, xa, xb, xp], [xp, xb, xc, xq], [xq, xc, xd, xf], [xe, xp, xq, xf])], axis=0)
+        best[worst > quality] = middles[worst > quality]
         quality = np.maximum(quality, worst)
+    if np.any(quality <= 0):
+        raise RuntimeError("eye: a graded core's transition template is inverted wherever its middle nodes go")
     points = np.concatenate([points, best.reshape(-1, 2), circle])
     points[np.abs(points) < 1e-15] = 0.0
     return points, np.concatenate([quads, new_quads])
