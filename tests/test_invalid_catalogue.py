@@ -323,7 +323,7 @@ CASES = {
                                         "tension = 0.1\n",
                                         ["[buckle_sutures]", "no suture at azimuth 180.0 deg, outside the tire"]),
     # the grading of the buckled eye around its sutures ([mesh] graded) and of any eye ([mesh] graded_at,
-    # graded_azimuths)
+    # graded_azimuths, graded_between)
     "graded-without-buckle-sutures": (tire("{ arc_deg = 90.0 }", "graded = true\n"),
                                       ["[mesh]", "graded refines the eye around the sutures' bites",
                                        "[buckle_sutures]"]),
@@ -336,6 +336,14 @@ CASES = {
     "graded-azimuths-under-a-tire": (tire("{ arc_deg = 90.0 }", "graded_azimuths = [10.0]\n"),
                                      ["[mesh]", "graded_azimuths grades the eye around a radial sponge",
                                       "a tire or a band lies on the eye's even azimuths"]),
+    "graded-between-without-azimuths": (eye("graded_between = [6.0, 18.0]\nn_circ = 16\n"),
+                                        ["[mesh]", "graded_between says where graded_azimuths holds",
+                                         "give graded_azimuths"]),
+    "graded-between-back-first": (eye("graded_azimuths = [45.0]\ngraded_between = [18.0, 6.0]\nn_circ = 16\n"),
+                                  ["[mesh]", "graded_between must be two distances behind the limbus (mm), the front "
+                                   "one first, got [18.0, 6.0]"]),
+    "graded-between-one-circle": (eye("graded_azimuths = [45.0]\ngraded_between = [6.0]\nn_circ = 16\n"),
+                                  ["[mesh]", "graded_between must be two distances", "got [6.0]"]),
     "graded-at-off-the-sclera": (eye("graded_at = [12.5, 40.0]\n" + SMALL_EYE),
                                  ["[mesh]", "graded_at 40.0 mm behind the limbus is off the sclera that can be"]),
     "graded-at-the-zonule": (eye("graded_at = [2.0]\n" + SMALL_EYE),

@@ -165,8 +165,9 @@ def read_mesh(reading: Reading) -> None:
                              "[buckle_sutures]")
         mesh = {k: v for k, v in mesh.items() if k != "graded"}
     for key, lines in (reading.graded or {}).items():  # with the scene's own lines, if it gives them
-        given = mesh.get(key, [])
-        mesh = {**mesh, key: [*given, *lines] if isinstance(given, list) else given}
+        given = mesh.get(key, [])  # (the span of graded_between, the scene's if it gives one)
+        merged = [*given, *lines] if key != "graded_between" else given or lines
+        mesh = {**mesh, key: merged if isinstance(given, list) else given}
     table = Table(mesh, f"{reading.path}: [mesh]", set(mesh))  # keys are checked per mesh source
     reading.mesh = mesh_table(table, os.path.dirname(os.path.abspath(reading.path)), reading.comm)
     cells = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}[reading.mesh.mesh.ufl_cell().cellname()]

@@ -47,8 +47,8 @@ import numpy as np
 from ...checks import is_number
 from ...errors import SceneError
 from .eye import checked_parameters, eye_geometry
+from .eye_azimuths import node_azimuths
 from .eye_meridian import LIMBUS_BLEND
-from .eye_revolution import node_azimuths
 from .hexes import check
 
 # An encircling element is secured to the sclera 12-13 mm behind the limbus (J. Ophthalmol. 2016, article

@@ -65,6 +65,7 @@ from .hexes import check
 SUTURE_MARGIN = 1.0
 BITE_LENGTH = 3.0  # mm along the sclera: our choice, not a published figure (the module docstring)
 BITE_SPACING = 0.1  # mm between the points a bite's load is spread over
+GRADED_MARGIN = 2.0  # mm along the meridian beyond a radial sponge and its bites that the eye stays graded around it
 _SUTURE_SIDES = ("back", "front")
 
 
@@ -134,7 +135,9 @@ def suture_grading(parameters: dict | None = None, sutures: list[dict] | None = 
     """The eye's grading for the sutures (the module docstring says why): the eye parameters to add
     to ``parameters``. For a tire or a band, ``graded_at`` (:func:`eye.build_eye`, mm behind the
     limbus): the circles of latitude of the body's edges on the sclera and of the sutures' bites.
-    For a radial sponge, ``graded_azimuths`` (degrees): the meridians of its sides and of the bites.
+    For a radial sponge, ``graded_azimuths`` (degrees): the meridians of its sides and of the bites;
+    and ``graded_between``: those azimuths only from ``GRADED_MARGIN`` in front of the sponge and its
+    bites to as far behind them (mm behind the limbus), coarser away from there.
 
     Args:
         parameters: as :func:`suture_points`.
@@ -143,7 +146,8 @@ def suture_grading(parameters: dict | None = None, sutures: list[dict] | None = 
             sponge without an encircling band (a band's tightening does it with a band).
 
     Returns:
-        ``{}`` if not graded, else ``{"graded_at": [...]}`` or ``{"graded_azimuths": [...]}``.
+        ``{}`` if not graded, else ``{"graded_at": [...]}`` or ``{"graded_azimuths": [...],
+        "graded_between": [front, back]}``.
     """
     layout = buckle_layout(**(parameters or {}))
     body = layout.bodies[layout.sutured]  # the body on the sclera
@@ -152,11 +156,13 @@ def suture_grading(parameters: dict | None = None, sutures: list[dict] | None = 
     if not graded:
         return {}
     bites = np.array([suture["sclera"] for suture in (suture_points(parameters) if sutures is None else sutures)])
+    thetas = np.array([*body.theta, *np.arccos(-bites[:, 2] / np.linalg.norm(bites, axis=1))])
+    behind = layout.limbus_arc - layout.globe_radius * thetas  # mm behind the limbus
     if body.radial:
         lines = np.degrees([*body.azimuths[[0, -1]], *np.arctan2(bites[:, 1], bites[:, 0])])
-        return {"graded_azimuths": _distinct(lines)}
-    thetas = np.array([*body.theta, *np.arccos(-bites[:, 2] / np.linalg.norm(bites, axis=1))])
-    return {"graded_at": _distinct(layout.limbus_arc - layout.globe_radius * thetas)}
+        return {"graded_azimuths": _distinct(lines),
+                "graded_between": [float(behind.min() - GRADED_MARGIN), float(behind.max() + GRADED_MARGIN)]}
+    return {"graded_at": _distinct(behind)}
 
 
 def _distinct(values) -> list[float]:

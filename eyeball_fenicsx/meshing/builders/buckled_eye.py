@@ -41,15 +41,15 @@ from .buckle_placement import (
     BuckleLayout,
     buckle_layout,
 )
-from .buckle_sutures import SUTURE_MARGIN, suture_grading, suture_points
+from .buckle_sutures import GRADED_MARGIN, SUTURE_MARGIN, suture_grading, suture_points
 from .eye import EYE_OPTIONS, EyeMesh, eye_geometry
+from .eye_azimuths import cos_sin
 from .eye_detachment import DETACHMENT_KEYS
-from .eye_revolution import cos_sin
 from .hexes import add_hex_model, boundary_quads, builder_main, corner_jacobians, hex_grid, hex_volumes, msh_writer
 
-__all__ = ["BAND_POSITION", "BAND_THICKNESS", "BAND_WIDTH", "GAP", "MIN_BUCKLE_JACOBIAN", "SUTURE_MARGIN", "TIRE",
-           "BuckleBody", "BuckleLayout", "buckle_layout", "buckled_eye_geometry", "build_buckled_eye", "hex_volumes",
-           "main", "suture_grading", "suture_points", "write"]
+__all__ = ["BAND_POSITION", "BAND_THICKNESS", "BAND_WIDTH", "GAP", "GRADED_MARGIN", "MIN_BUCKLE_JACOBIAN",
+           "SUTURE_MARGIN", "TIRE", "BuckleBody", "BuckleLayout", "buckle_layout", "buckled_eye_geometry",
+           "build_buckled_eye", "hex_volumes", "main", "suture_grading", "suture_points", "write"]
 
 MIN_BUCKLE_JACOBIAN = 0.5  # the builder refuses a buckle element with a worse corner
 

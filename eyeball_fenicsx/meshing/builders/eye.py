@@ -96,6 +96,14 @@ def _check_parameters(p):
     if len(graded) and p["sector_deg"] < 360.0:
         raise SceneError(f"eye: graded_azimuths needs the whole eye (sector_deg = 360), got sector_deg "
                          f"{p['sector_deg']:g}")
+    between = p["graded_between"]
+    if not (isinstance(between, (list, tuple, np.ndarray)) and len(between) in (0, 2)
+            and all(is_number(x) for x in between) and (not len(between) or between[0] < between[1])):
+        raise SceneError(f"eye: graded_between must be two distances behind the limbus (mm), the front one first, "
+                         f"got {between!r}")
+    if len(between) and not len(graded):
+        raise SceneError("eye: graded_between says where graded_azimuths holds along the meridian: "
+                         "give graded_azimuths")
     inner = p["choroid_thickness"] + p["retina_thickness"]
     if not inner < CILIARY_THICKNESS:
         raise SceneError(f"eye: choroid_thickness + retina_thickness ({inner}) must be below the ciliary body "
@@ -128,7 +136,7 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
                  optic_nerve_diameter: float = 3.5, optic_nerve_length: float = 3.0, detachment: dict | None = None,
                  refine: int = 1, n_circ: int | None = None, sector_deg: float = 360.0,
                  wall_layers: int = 1, graded_at: Sequence[float] = (),
-                 graded_azimuths: Sequence[float] = ()) -> EyeMesh:
+                 graded_azimuths: Sequence[float] = (), graded_between: Sequence[float] = ()) -> EyeMesh:
     """The eye mesh as numpy arrays (see :func:`build_eye` for the parameters).
 
     Returns:
@@ -144,7 +152,8 @@ def eye_geometry(axial_length: float = 24.0, corneal_radius: float = CORNEA_RADI
     p, m = checked_parameters(p)
     if detachment is not None:
         detachment = check_detachment(detachment, m, p["sector_deg"])
-    nodes, hexes, regions, azimuths = assemble_eye(m, p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]))
+    nodes, hexes, regions, azimuths = assemble_eye(m, p["n_circ"], p["sector_deg"], np.radians(p["graded_azimuths"]),
+                                                   p["graded_between"])
     if detachment is not None:
         nodes, hexes = detach(nodes, hexes, regions, m, detachment, p["sector_deg"])
     _, scaled = corner_jacobians(nodes, hexes)
@@ -260,16 +269,16 @@ def build_eye(**parameters) -> dict:
             ``n_circ`` gives a fine eye whose wall elements keep their shape.
         sector_deg: 360 (whole eye), 180 or 90 (a wedge with the cut planes "cut_0" at azimuth 0
             and "cut_1" at ``sector_deg``, for models symmetric about them).
-        graded_at: circles of latitude, each given by its distance behind the limbus along the
-            sclera (mm, as a buckle's ``band_position``), more than 3 mm behind it (where the
-            zonule meets the ciliary body the columns are fixed) and in front of the optic nerve's
-            edge, around which the elements along the meridian are finer: the spacing is 0.1 mm at
-            a circle (its neighbouring elements about 0.13 mm long) and 0.5 mm longer per mm away,
-            up to the usual 0.8 (over ``refine``; eye_meridian.py). A scene's ``[buckle_sutures]``
-            grades at a tire's edges and its sutures' bites (buckle_sutures.suture_grading).
+        graded_at: circles of latitude (mm behind the limbus along the sclera, as a buckle's
+            ``band_position``; more than 3 mm behind it, in front of the optic nerve's edge) around
+            which the elements along the meridian are finer: 0.1 mm at a circle, 0.5 mm longer per
+            mm away, up to the usual 0.8 (over ``refine``; eye_meridian.py). A scene's
+            ``[buckle_sutures]`` grades at a tire's edges and its sutures' bites.
         graded_azimuths: meridians (azimuths, degrees; whole eye) around which the elements are
-            finer across the meridian, spaced as ``graded_at``'s along the equator (eye_revolution.py;
-            a scene's ``[buckle_sutures]`` grades at a radial sponge's sides and its sutures' bites).
+            finer across the meridian, spaced as ``graded_at``'s along the equator (eye_azimuths.py;
+            a scene's ``[buckle_sutures]`` grades at a radial sponge's sides and its sutures' bites),
+            between the circles ``graded_between`` (mm behind the limbus, front, back; by default
+            everywhere), coarser one column at a time away from them (eye_revolution.py).
 
     Returns:
         The mesh statistics (:attr:`EyeMesh.info`).
@@ -314,6 +323,8 @@ EYE_OPTIONS = {
                       help="circles of latitude to grade the eye at, mm behind the limbus"),
     "graded_azimuths": dict(type=float, nargs="+", default=(), metavar="DEG",
                             help="meridians to grade the eye at, degrees of azimuth (whole eye)"),
+    "graded_between": dict(type=float, nargs=2, default=(), metavar=("FRONT", "BACK"),
+                           help="the circles between which the meridians are graded, mm behind the limbus"),
 }
 main = builder_main(_build_from_cli, "eyeball_fenicsx.meshing.builders.eye", __doc__, **EYE_OPTIONS,
                     detachment=dict(type=float, nargs=4, metavar=("POLAR_DEG", "AZIMUTH_DEG", "EXTENT_DEG", "GAP"),
