@@ -21,7 +21,7 @@ from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.builders.buckle_sutures import BITE_LENGTH, BITE_SPACING
 from eyeball_fenicsx.meshing.builders.eye_azimuths import _butterfly, coarser_levels, disc, node_azimuths
 from eyeball_fenicsx.meshing.builders.eye_meridian import SPACING
-from eyeball_fenicsx.meshing.builders.hexes import corner_jacobians
+from eyeball_fenicsx.meshing.builders.hexes import HEX_FACES, corner_jacobians
 from eyeball_fenicsx.meshing.load import built_mesh, load_mesh
 from eyeball_fenicsx.scene.loader import load_scene
 
@@ -577,6 +577,37 @@ def test_a_sponge_grades_the_eye_between_two_circles_only():
         assert len(np.unique(azimuths[(low < behind) & (behind < high)])) == count
 
 
+def test_strips_of_the_band_keep_a_detachment_and_the_zonule_whole():
+    """Two ways a band's strips once broke the eye (a second reading of the change): a detachment
+    whose edge crosses a strip moves its nodes along the lines through the centre, so the strips'
+    middle nodes must lie on one such line through the wall (they did not, by 5e-7 mm, and the
+    retina inverted: a scaled Jacobian of -1 for a 0.3 mm gap); and a band in front of the zonule's
+    attachment must not leave the zonule on coarser azimuths than the ciliary body it is bonded to
+    (its faces lay on the ciliary body's unshared). Now the detached eye keeps its corners above
+    0.4 (measured 0.48; 0.50 graded everywhere), and no boundary face of the zonule lies on one of
+    the ciliary body."""
+    sponge = {"n_circ": N_CIRC, "sector_deg": 360.0, "sponge": {"azimuth_deg": 45.0},
+              "detachment": {"polar_deg": 60.0, "azimuth_deg": 45.0, "extent_deg": 40.0, "gap": 0.3}}
+    grading = buckled_eye.suture_grading(sponge, buckled_eye.suture_points(sponge, count=2))
+    detached, _ = buckled_eye.buckled_eye_geometry(**sponge, **grading)
+    assert detached.info["min_scaled_jacobian"] > 0.4
+    front = eye.eye_geometry(n_circ=N_CIRC, graded_azimuths=[45.0], graded_between=[0.5, 1.5])
+    hexes = np.concatenate(list(front.regions.values()))
+    faces = np.sort(hexes[:, list(HEX_FACES.values())].reshape(-1, 4), axis=1)
+    unique, count = np.unique(faces, axis=0, return_counts=True)
+    outside = {tuple(face) for face in unique[count == 1]}
+
+    def boundary(region):
+        quads = front.regions[region][:, list(HEX_FACES.values())].reshape(-1, 4)
+        return quads[[tuple(sorted(quad)) in outside for quad in quads]]
+
+    ciliary = front.nodes[boundary("ciliary_body")]
+    samples = np.concatenate([(1 - u) * (1 - v) * ciliary[:, 0] + u * (1 - v) * ciliary[:, 1] + u * v * ciliary[:, 2]
+                              + (1 - u) * v * ciliary[:, 3] for u in (0.25, 0.5, 0.75) for v in (0.25, 0.5, 0.75)])
+    distance, _ = cKDTree(samples).query(front.nodes[boundary("zonule")].mean(axis=1))
+    assert distance.min() > 0.03
+
+
 @pytest.mark.parametrize("n_circ", [N_CIRC, 40])
 def test_graded_cores_take_fewer_azimuths_inside(n_circ):
     """A graded core's disc (before it is swept through the core's layers): inside transition rings
@@ -625,7 +656,8 @@ def test_circles_closer_than_the_fine_spacing_share_a_column():
 def test_a_scene_grades_the_eye_of_its_sutured_buckle(tmp_path, buckle):
     """Read from a scene: a segmental tire or a radial sponge with [buckle_sutures] builds the eye
     graded at the lines of suture_grading (by default: circles of latitude for the tire, meridians
-    between two circles for the sponge), uniform with ``[mesh] graded = false``."""
+    between two circles for the sponge), uniform with ``[mesh] graded = false``; a sponge's scene may
+    give its own span (``graded_between``), which replaces the sutures'."""
     body = {"tire": {"width": 4.0, "height": 1.0, "arc_deg": 90.0, "azimuth_deg": 30.0},
             "sponge": {"width": 5.0, "height": 2.0, "length": 10.0, "azimuth_deg": 45.0}}[buckle]
     parameters = {"n_circ": N_CIRC, "sector_deg": 360.0, buckle: body}
@@ -634,9 +666,12 @@ def test_a_scene_grades_the_eye_of_its_sutured_buckle(tmp_path, buckle):
     scene = (f'name = "graded"\ntissues = "seed"\n[mesh]\nbuilder = "buckled_eye"\nn_circ = {N_CIRC}\n'
              f'sector_deg = 360.0\n{buckle} = {{ {inline} }}\n{{graded}}[materials.{buckle}]\nmodel = "neo-hooke"\n'
              'c10 = 0.41\n[[step]]\nname = "suture"\n[buckle_sutures]\ncount = 2\ntension = 0.01\n')
-    for graded, expected in (("", grading), ("graded = false\n", {key: None for key in grading})):
+    cases = [("", grading), ("graded = false\n", {key: None for key in grading})]
+    if buckle == "sponge":  # a scene's own span replaces the sutures' ([]: graded all along the meridians)
+        cases += [(f"graded_between = {span}\n", {**grading, "graded_between": span}) for span in ([4.0, 21.0], [])]
+    for graded, expected in cases:
         path = tmp_path / f"scene{COMM.rank}{len(graded)}.toml"
         path.write_text(scene.replace("{graded}", graded))
         built = load_scene(str(path)).mesh.parameters
         for key, lines in expected.items():
-            assert built.get(key) == (pytest.approx(lines, abs=1e-12) if lines else None)
+            assert built.get(key) == (pytest.approx(lines, abs=1e-12) if lines is not None else None)

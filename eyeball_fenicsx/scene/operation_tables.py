@@ -116,7 +116,8 @@ def read_buckle_sutures(reading: Reading) -> None:
     if t.has("tension") == t.has("shortening"):
         raise t.error("give exactly one of tension or shortening")
     graded = Table(mesh, f"{reading.path}: [mesh]", set(mesh)).get("graded", "flag")
-    parameters = {k: v for k, v in mesh.items() if k not in ("builder", "graded")}
+    # (graded_between, the span of the grading, is the eye's once the sutures' azimuths are added)
+    parameters = {k: v for k, v in mesh.items() if k not in ("builder", "graded", "graded_between")}
     where = {"count": t.get("count", "integer", 4), "suture_width": t.get("width", "positive"),
              "azimuth_deg": t.get("azimuths", "numbers")}
     if t.has("bite"):

@@ -165,8 +165,8 @@ def read_mesh(reading: Reading) -> None:
                              "[buckle_sutures]")
         mesh = {k: v for k, v in mesh.items() if k != "graded"}
     for key, lines in (reading.graded or {}).items():  # with the scene's own lines, if it gives them
-        given = mesh.get(key, [])  # (the span of graded_between, the scene's if it gives one)
-        merged = [*given, *lines] if key != "graded_between" else given or lines
+        given = mesh.get(key, [])  # (the span of graded_between, the scene's if it gives one, [] too)
+        merged = [*given, *lines] if key != "graded_between" else given if key in mesh else lines
         mesh = {**mesh, key: merged if isinstance(given, list) else given}
     table = Table(mesh, f"{reading.path}: [mesh]", set(mesh))  # keys are checked per mesh source
     reading.mesh = mesh_table(table, os.path.dirname(os.path.abspath(reading.path)), reading.comm)

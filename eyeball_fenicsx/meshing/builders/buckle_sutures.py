@@ -44,7 +44,8 @@ of the body on the sclera and at the bites' circles of latitude
 (:func:`suture_grading`, the eye's ``graded_at``; ``[mesh] graded`` in a scene). Beside a radial
 sponge the strip between its side and the bites runs along the meridian, so the eye is graded
 across the meridians instead, at the sponge's sides and the bites' meridians (the eye's
-``graded_azimuths``).
+``graded_azimuths``), only from ``GRADED_MARGIN`` in front of the sponge to as far behind it (the
+eye's ``graded_between``; its azimuths coarsen beyond, eye_revolution.py).
 
 In a wedge model a suture on a cut plane is kept with ``share`` 1/2 (its mirror image holds the
 other half): dropping it can leave the buckle with a single suture azimuth, whose two strings meet

@@ -13,8 +13,10 @@ The mesh is built in four steps, one module each:
 * eye_meridian.py, the meridional section: the anatomy (Le Grand's schematic eye and histology,
   cited there) and the structured quadrilateral blocks of the corneoscleral shell, the choroid,
   retina and ciliary body, the zonule, the lens and the optic nerve;
-* eye_revolution.py, the blocks revolved about the axis in ``n_circ`` sectors, with butterfly
-  cores where a part crosses the axis; bonded tissues share nodes;
+* eye_azimuths.py, the node azimuths (even, or graded around given meridians) and the discs of
+  the butterfly cores where a part crosses the axis;
+* eye_revolution.py, the blocks revolved about the axis over those azimuths, and the cores;
+  bonded tissues share nodes;
 * eye_detachment.py, the optional detachment: a cap of the retina moved off the choroid by a
   constant gap;
 * eye_surfaces.py, the named boundary surfaces, and the check that the cavities are closed.

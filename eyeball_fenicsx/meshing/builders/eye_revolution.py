@@ -47,7 +47,7 @@ class _Assembly:
     """Hexahedra of the revolved blocks and the butterfly cores, before their common nodes are merged."""
 
     def __init__(self, m, n_circ, sector_deg, graded):
-        self.full, self.sector_deg = sector_deg >= 360.0, sector_deg
+        self.full, self.sector_deg, self.radius = sector_deg >= 360.0, sector_deg, m.Ro
         self.n_circ, self.rings, self.graded = n_circ, m.p["refine"], len(graded) > 0
         self.azimuths = node_azimuths(n_circ, sector_deg, graded, m.Ro, self.rings)
         self.levels, self.kept = coarser_levels(self.azimuths, n_circ) if self.graded else ([self.azimuths], [])
@@ -61,10 +61,11 @@ class _Assembly:
         self.regions.append(regions)
         self.count += len(nodes)
 
-    def revolve(self, section, regions, levels=None):
+    def revolve(self, section, regions, levels=None, columns=None):
         """Revolve a structured block: ``section`` (columns, rows, 2) in (rho, z); ``regions`` per cell;
         each column over the azimuths of its level in ``self.levels`` (``levels``, by default the
-        first), with a strip of transition templates between two columns one level apart."""
+        first), with a strip of transition templates between two columns one level apart (then
+        ``columns``: the columns' meridional parameters s)."""
         levels = np.zeros(len(section), dtype=int) if levels is None else np.asarray(levels)
         changes = np.flatnonzero(np.diff(levels))
         for first, last in zip([0, *(changes + 1)], [*changes, len(section) - 1]):
@@ -72,7 +73,8 @@ class _Assembly:
                 self._revolve(section[first:last + 1], regions[first:last], self.levels[levels[first]])
         for i in changes:
             fine, coarse = (i, i + 1) if levels[i] < levels[i + 1] else (i + 1, i)
-            self._strip(section[coarse], section[fine], regions[i], min(levels[i], levels[i + 1]))
+            self._strip(section[coarse], section[fine], regions[i], min(levels[i], levels[i + 1]),
+                        columns[[coarse, fine]] / self.radius)
 
     def _revolve(self, section, regions, azimuths):
         rho, z = section[..., 0, None], section[..., 1, None]
@@ -85,25 +87,28 @@ class _Assembly:
         cell_regions = np.broadcast_to(np.asarray(regions)[..., None], hexes.shape[:-1])
         self._add(nodes.reshape(-1, 3), hexes.reshape(-1, 8), cell_regions.ravel())
 
-    def _strip(self, coarse, fine, regions, level):
+    def _strip(self, coarse, fine, regions, level, polar):
         """The hexahedra between a column ``fine`` (rows, 2) at the azimuths of ``level`` and the next,
-        ``coarse``, at those of level + 1: on each row's sheet the cores' transition templates
-        (eye_azimuths.transition_quads), their middle nodes halfway between the columns, halfway
-        between the azimuth of the fine node each faces and the template's third; swept through
-        the rows."""
+        ``coarse``, at those of level + 1 (``polar``: the two columns' polar angles): on each row's
+        sheet the cores' transition templates (eye_azimuths.transition_quads), their middle nodes
+        halfway between the azimuth of the fine node each faces and the template's third, and a fine
+        element's width from the coarse column toward the fine one (at most halfway: near-square
+        corners), the same fraction on every row, so that they lie on one line through the centre
+        as a column's nodes do (the detachment moves nodes along those lines); swept through the rows."""
         azimuths, kept = self.levels[level], self.kept[level]
         n, rows = len(azimuths), len(fine)
         templates = kept[np.diff(np.append(kept, n)) == 3]
         thirds = template_thirds(azimuths, templates)
         middle = ((azimuths[templates[:, None] + [1, 2]] + thirds) / 2).ravel()
         widths = np.repeat(thirds[:, 0] - azimuths[templates], 2)  # rad: a fine element's, about
+        fraction = np.minimum(0.5, np.sin(polar.mean()) * widths / abs(polar[1] - polar[0]))[:, None]
         cos, sin = cos_sin(middle)
         nodes = []
         for row in range(rows):
-            # the middle nodes a fine element's width from the coarse column (at most halfway): square corners
-            depth = np.linalg.norm(fine[row] - coarse[row])
-            fraction = np.minimum(0.5, fine[row][0] * widths / depth)[:, None]
-            between = coarse[row] + fraction * (fine[row] - coarse[row])
+            ends = np.linalg.norm([coarse[row], fine[row]], axis=1)
+            direction = (1 - fraction) * coarse[row] / ends[0] + fraction * fine[row] / ends[1]
+            between = direction / np.linalg.norm(direction, axis=1)[:, None] * ((1 - fraction) * ends[0]
+                                                                                 + fraction * ends[1])
             for point, phi in ((coarse[row], azimuths[kept]), (fine[row], azimuths)):
                 c, s_ = cos_sin(phi)
                 nodes.append(np.column_stack([point[0] * c, point[0] * s_, np.full(len(phi), point[1])]))
@@ -177,10 +182,11 @@ def _column_levels(m: Meridian, parts: _Assembly, between) -> np.ndarray:
     inside = np.flatnonzero((columns >= back) & (columns <= front))
     if not len(inside):
         inside = [np.argmin(np.abs(columns - (back + front) / 2))]
-    index = np.arange(len(columns))
-    levels = np.minimum(coarsest, np.maximum(inside[0] - index, 0) + np.maximum(index - inside[-1], 0))
-    if levels[m.index["z0"]] < coarsest:
-        levels[inside[-1]:] = 0
+    index, first, last = np.arange(len(columns)), inside[0], inside[-1]
+    levels = np.minimum(coarsest, np.maximum(first - index, 0) + np.maximum(index - last, 0))
+    if np.any(levels[m.index["z0"]:] < coarsest):  # graded from the band to the cornea, then
+        first, last = min(first, m.index["z0"]), len(columns) - 1
+        levels = np.minimum(coarsest, np.maximum(first - index, 0))
     return levels
 
 
@@ -200,12 +206,12 @@ def assemble_eye(m: Meridian, n_circ: int, sector_deg: float, graded=(),
 
     # The corneoscleral shell and the inner layers (choroid and retina, then ciliary body).
     shell = np.stack([m.shell_row(s, j) for j in range(ns + 1)], axis=1)
-    parts.revolve(shell, np.where(mid < m.s_l, "sclera", "cornea")[:, None].repeat(ns, axis=1), levels)
+    parts.revolve(shell, np.where(mid < m.s_l, "sclera", "cornea")[:, None].repeat(ns, axis=1), levels, s)
     spur = m.index["spur"]
     inner = np.stack([m.inner_row(s[:spur + 1], j) for j in range(ni + 1)], axis=1)
     retina_or_choroid = np.where(np.arange(ni) < nch, "choroid", "retina")
     parts.revolve(inner, np.where((mid[:spur] < m.s_ora)[:, None], retina_or_choroid[None, :], "ciliary_body"),
-                  levels[:spur + 1])
+                  levels[:spur + 1], s[:spur + 1])
 
     # The lens beyond its core, and the zonule from the lens rim to the pars plicata.
     nl = LENS_LAYERS * r
