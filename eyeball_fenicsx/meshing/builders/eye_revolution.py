@@ -19,9 +19,11 @@ sponge's ends and its bites, with a margin, buckle_sutures.py); the shell's and 
 columns outside them take the cores' coarser sets (eye_azimuths.coarser_levels), one level per
 column away, and the zonule, the lens and the cornea the coarsest, where it is reached behind the
 zonule (else everything in front of the band stays graded). Between two columns a level apart,
-each row's sheet has the cores' 1-to-3 templates, swept through the wall: their middle nodes on
-the chord between the columns, a fine element's width from the coarse one (at most halfway), so
-that the templates' corners stay near square however long the column interval.
+each row's sheet has the cores' 1-to-3 templates, swept through the wall: their middle nodes a
+fine element's width from the coarse column (at most halfway), so that the templates' corners stay
+near square however long the column interval, the same fraction of the way on every row (between
+the two columns' lines through the centre, and between their radii), so that they lie on one line
+through the centre as a column's nodes do: a detachment moves its nodes along those lines.
 """
 import numpy as np
 from scipy.sparse import coo_matrix
