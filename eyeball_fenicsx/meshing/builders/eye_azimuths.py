@@ -141,14 +141,15 @@ def _transition(points, quads, azimuths, kept, inside):
     inner = total - len(kept) + np.arange(len(kept))  # their node k is at azimuths[kept[k + shift]] (_turns)
     first = np.arctan2(points[inner[0], 1], points[inner[0], 0])
     inner = np.roll(inner, np.argmin(np.abs(np.remainder(azimuths[kept] - first + np.pi, 2 * np.pi) - np.pi)))
-    templates = kept[np.diff(np.append(kept, n)) == 3]
+    over_three = np.diff(np.append(kept, n)) == 3  # the inner elements that are templates
+    templates = kept[over_three]
     between = (templates[:, None] + [1, 2]).ravel()
     middle = total + np.arange(len(between)).reshape(-1, 2)  # the templates' middle nodes
     outer = total + len(between) + np.arange(n)
     new_quads = transition_quads(kept, n, inner, outer, middle)
     circle = np.stack([np.cos(azimuths), np.sin(azimuths)], axis=-1)
     thirds = template_thirds(azimuths, templates)
-    e, f = inner[np.diff(np.append(kept, n)) == 3], np.roll(inner, -1)[np.diff(np.append(kept, n)) == 3]
+    e, f = inner[over_three], np.roll(inner, -1)[over_three]
     xe, xa, xb, xc, xd, xf = points[e], *(circle[(templates + k) % n] for k in range(4)), points[f]
     best, quality = np.zeros((len(templates), 2, 2)), np.full(len(templates), -np.inf)
     for depth, toward_thirds in itertools.product(MIDDLE_DEPTHS, MIDDLE_BLENDS):
