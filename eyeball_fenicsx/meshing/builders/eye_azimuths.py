@@ -49,21 +49,22 @@ def disc(n_circ, rings, azimuths=None):
     them; n_circ then the eye's even count, which sets how wide merged elements may be), the outer
     nodes are at those: a transition ring (:func:`_transition`) takes a smaller disc's nodes at some
     of them (:func:`_kept_inside`) out to all of them, its depth ``TEMPLATE_DEPTH`` times the merged
-    elements' median width; and so on inwards while elements merge; the innermost disc is
-    :func:`_butterfly`'s, turned onto the azimuths left.
+    elements' median width; and so on inwards while elements merge (:func:`coarser_levels`); the
+    innermost disc is :func:`_butterfly`'s, turned onto the azimuths left.
 
     Returns:
         ``(points, quads)``: coordinates, shape ``(N, 2)``, and counter-clockwise quadrilaterals.
     """
     if azimuths is None:
         return _butterfly(n_circ, rings)
-    kept = _kept_inside(azimuths, n_circ)
-    if len(kept) == len(azimuths):
-        return _butterfly(len(kept), rings, azimuths)
-    points, quads = disc(n_circ, rings, azimuths[kept])
-    merged_widths = np.diff(np.append(azimuths[kept], 2 * np.pi))[np.diff(np.append(kept, len(azimuths))) == 3]
-    inside = 1.0 - TEMPLATE_DEPTH * np.median(merged_widths) / 3  # the smaller disc's radius
-    return _transition(inside * points, quads, azimuths, kept, inside)
+    levels, kept = coarser_levels(azimuths, n_circ)
+    points, quads = _butterfly(len(levels[-1]), rings, levels[-1])
+    for finer, inside_kept in zip(levels[-2::-1], kept[::-1]):  # the transition rings, outwards
+        merged = np.diff(np.append(inside_kept, len(finer))) == 3
+        merged_widths = np.diff(np.append(finer[inside_kept], 2 * np.pi))[merged]
+        inside = 1.0 - TEMPLATE_DEPTH * np.median(merged_widths) / 3  # the smaller disc's radius
+        points, quads = _transition(inside * points, quads, finer, inside_kept, inside)
+    return points, quads
 
 
 def _butterfly(n_circ, rings, azimuths=None):

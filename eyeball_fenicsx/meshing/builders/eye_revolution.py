@@ -104,17 +104,15 @@ class _Assembly:
         middle = ((azimuths[templates[:, None] + [1, 2]] + thirds) / 2).ravel()
         widths = np.repeat(thirds[:, 0] - azimuths[templates], 2)  # rad: a fine element's, about
         fraction = np.minimum(0.5, np.sin(polar.mean()) * widths / abs(polar[1] - polar[0]))[:, None]
-        cos, sin = cos_sin(middle)
+        rings = [cos_sin(azimuths[kept]), cos_sin(azimuths), cos_sin(middle)]  # a row's coarse, fine, middle nodes
         nodes = []
         for row in range(rows):
             ends = np.linalg.norm([coarse[row], fine[row]], axis=1)
             direction = (1 - fraction) * coarse[row] / ends[0] + fraction * fine[row] / ends[1]
             between = direction / np.linalg.norm(direction, axis=1)[:, None] * ((1 - fraction) * ends[0]
                                                                                  + fraction * ends[1])
-            for point, phi in ((coarse[row], azimuths[kept]), (fine[row], azimuths)):
-                c, s_ = cos_sin(phi)
-                nodes.append(np.column_stack([point[0] * c, point[0] * s_, np.full(len(phi), point[1])]))
-            nodes.append(np.column_stack([between[:, 0] * cos, between[:, 0] * sin, between[:, 1]]))
+            for (rho, z), (cos, sin) in zip((coarse[row], fine[row], between.T), rings):
+                nodes.append(np.column_stack([rho * cos, rho * sin, np.broadcast_to(z, cos.shape)]))
         per_row = len(kept) + n + len(middle)
         quads = transition_quads(kept, n, np.arange(len(kept)), len(kept) + np.arange(n),
                                  len(kept) + n + np.arange(len(middle)).reshape(-1, 2))
@@ -187,8 +185,7 @@ def _column_levels(m: Meridian, parts: _Assembly, between) -> np.ndarray:
     index, first, last = np.arange(len(columns)), inside[0], inside[-1]
     levels = np.minimum(coarsest, np.maximum(first - index, 0) + np.maximum(index - last, 0))
     if np.any(levels[m.index["z0"]:] < coarsest):  # graded from the band to the cornea, then
-        first, last = min(first, m.index["z0"]), len(columns) - 1
-        levels = np.minimum(coarsest, np.maximum(first - index, 0))
+        levels = np.minimum(coarsest, np.maximum(min(first, m.index["z0"]) - index, 0))
     return levels
 
 
