@@ -58,8 +58,9 @@ class Residuals:
     """Every Newton solve's residual norms, whether each step before them factorized a new
     tangent (the others reuse one: chord steps, which converge linearly by design), and what the
     solve was for (``kind``, system/stepping.py): an increment's first solve, a solve after a new
-    contact search, an augmentation's (from the last factorization), the solve at the usual
-    tolerances that ends a step's loose ones, or any solve of an increment that failed."""
+    contact search (with the augmentations' next update, while they still move), an augmentation's
+    (from the last factorization), the solve at the usual tolerances that ends a step's loose ones,
+    or any solve of an increment that failed."""
 
     KINDS = ("increment", "search again", "augmentation", "at the usual tolerances", "failed increment")
 

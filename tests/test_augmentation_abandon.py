@@ -3,7 +3,8 @@ the augmentation is taken back, the converged state before it stands, and one so
 tolerances ends the increment, judged at the increment's scales as they were before the failed
 solve (``NewtonSolver.solve`` keeps a failed solve's norms out of them:
 tests/test_solver_globalization.py); a failed solve with nothing to take back fails the increment at
-once. A scripted problem and Newton solver stand in for the real ones, so each path is taken for sure."""
+once. A search again during the augmentations comes with the next update of the multipliers, in one
+solve. A scripted problem and Newton solver stand in for the real ones, so each path is taken for sure."""
 import numpy as np
 from petsc4py import PETSc
 
@@ -15,17 +16,19 @@ SETTLED, FAILED = 1.0, 99.0  # the state a solve leaves x at, when it converges 
 class ScriptedProblem:
     """An active set whose augmentations follow ``passes`` (False: another pass)."""
 
-    def __init__(self, passes, taken_back):
+    def __init__(self, passes, taken_back, covers=(), events=None):
         self.active_sets, self.passes, self.taken_back = [object()], list(passes), taken_back
+        self.covers, self.events = list(covers), [] if events is None else events
         self.abandoned, self.states = 0, []
 
     def set_increment(self, final):
         pass
 
     def search_covers(self):
-        return True
+        return self.covers.pop(0) if self.covers else True
 
     def augment(self, solving):
+        self.events.append("augment")
         return self.passes.pop(0)
 
     def abandon_augmentation(self):
@@ -42,13 +45,15 @@ class ScriptedNewton:
 
     factorizations = krylov_iterations = memory_mb = 0
 
-    def __init__(self, outcomes):
+    def __init__(self, outcomes, events=None):
         self.outcomes, self.increment_scales, self.scales_seen = list(outcomes), None, []
+        self.events = [] if events is None else events
 
     def update_pattern(self):
-        pass
+        self.events.append("search")
 
     def solve(self, x, chord_start=False, loose=False, again=False):
+        self.events.append("loose solve" if loose else "solve")
         if not again:
             self.increment_scales = np.array([1.0])
         self.scales_seen.append(self.increment_scales.copy())
@@ -59,10 +64,11 @@ class ScriptedNewton:
         return converged, 2, 1e-12 if converged else 1e3, "scripted"
 
 
-def _increment(passes, outcomes, taken_back=True):
-    problem, newton = ScriptedProblem(passes, taken_back), ScriptedNewton(outcomes)
+def _increment(passes, outcomes, taken_back=True, covers=(), load_factor=1.0):
+    events = []
+    problem, newton = ScriptedProblem(passes, taken_back, covers, events), ScriptedNewton(outcomes, events)
     x = PETSc.Vec().createSeq(3, comm=PETSc.COMM_SELF)
-    converged, _, _ = stepping._solve_increment(problem, newton, x, 1.0)
+    converged, _, _ = stepping._solve_increment(problem, newton, x, load_factor)
     return converged, problem, newton, x.getArray().copy()
 
 
@@ -79,3 +85,18 @@ def test_a_failed_solve_with_nothing_to_take_back_fails_the_increment_at_once():
     # settled with no update (True), the solve at the usual tolerances fails: no second try
     converged, problem, newton, _ = _increment([True], [True, False], taken_back=False)
     assert not converged and problem.abandoned == 1 and newton.outcomes == []
+
+
+def test_a_search_again_during_the_augmentations_comes_with_the_next_update():
+    # the increment's loose solve outruns its search: search, update the multipliers, one loose solve;
+    # settled: the solve at the usual tolerances; settled again: done
+    converged, problem, _, _ = _increment([False, True, True], [True, True, True], covers=[False])
+    assert converged
+    assert problem.events == ["search", "loose solve", "search", "augment", "loose solve", "augment", "solve",
+                              "augment"]
+
+
+def test_a_search_again_at_the_usual_tolerances_is_solved_before_the_augmentation_is_asked():
+    # an increment inside a step (no augmentation solves): the search's own solve, then the update
+    converged, problem, _, _ = _increment([True], [True, True], covers=[False], load_factor=0.5)
+    assert converged and problem.events == ["search", "solve", "search", "solve", "augment"]

@@ -6,7 +6,9 @@
 * After Newton converges, if an active set's last search no longer covers the state (a
   contact point moved past the reach of its candidates: ``Problem.search_covers``), the
   active sets search again at that state and Newton solves again from it, at most
-  ``MAX_SEARCHES`` times in an increment (then it is cut back).
+  ``MAX_SEARCHES`` times in an increment (then it is cut back). While the augmentations below
+  still move the multipliers, their next update is taken at that state too, and one solve
+  serves both: it starts from a new tangent anyway (the new search changed the contacts).
 * After Newton converges, features may ask for another solve (``Problem.augment``: the
   augmented Lagrangian of contact, which solves again in a step's last increment only). Those
   solves, and the first one of a step's last increment when the scene has active sets, are
@@ -167,8 +169,9 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
                      load_factor: float) -> tuple[bool, Increment, str]:
     """Newton on the increment ending at ``load_factor``, then again after a new search where the
     last one no longer covers the state, and while a feature augments (the augmented Lagrangian
-    of contact), the augmentations' from the last factorization. Returns (converged,
-    the increment's ``Increment``, Newton's reason)."""
+    of contact), the augmentations' from the last factorization; a new search during the
+    augmentations is solved with their next update. Returns (converged, the increment's
+    ``Increment``, Newton's reason)."""
     start, factorized, krylov = time.perf_counter(), newton.factorizations, newton.krylov_iterations
     newton.update_pattern()
     final = load_factor >= 1.0 - 1e-12
@@ -177,14 +180,17 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     converged, its, norm, reason = newton.solve(x, loose=loose)
     settled, searches, abandoned = x.duplicate(), 0, False
     while converged:
-        if not problem.search_covers():  # a point moved past its search's reach: search at this state, solve again
+        searched = not problem.search_covers()
+        if searched:  # a point moved past its search's reach: search at this state, solve again
             if searches == MAX_SEARCHES:
                 converged, reason = False, f"contact points still outrun their search after {searches} more"
                 break
             newton.update_pattern()
-            converged, more, norm, reason = newton.solve(x, loose=loose, again=True)
-            its, searches = its + more, searches + 1
-            continue
+            searches += 1
+            if not loose:  # else the augmentation's update comes with the new search, in one solve
+                converged, more, norm, reason = newton.solve(x, again=True)
+                its += more
+                continue
         done = problem.augment(solving=loose)
         if done and not loose:
             break
@@ -192,7 +198,7 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
         # usual tolerances, then ends the increment (the augmentation checks it again)
         x.copy(settled)
         before = norm, reason, loose
-        converged, more, norm, reason = newton.solve(x, chord_start=True, loose=not done, again=True)
+        converged, more, norm, reason = newton.solve(x, chord_start=not searched, loose=not done, again=True)
         its, loose = its + more, not done
         if not converged and not abandoned and problem.abandon_augmentation():  # an update (a pass, or the
             settled.copy(x)                                 # free last one) taken back: the state before it stands
