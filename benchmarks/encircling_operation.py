@@ -58,7 +58,7 @@ class Residuals:
     """Every Newton solve's residual norms, whether each step before them factorized a new
     tangent (the others reuse one: chord steps, which converge linearly by design), and what the
     solve was for (``kind``, system/stepping.py): an increment's first solve, a solve after a new
-    contact search (with the augmentations' next update, while they still move), an augmentation's
+    contact search (with the augmentations' next update, or their last, during them), an augmentation's
     (from the last factorization), the solve at the usual tolerances that ends a step's loose ones,
     or any solve of an increment that failed."""
 

@@ -347,12 +347,12 @@ class NewtonSolver:
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
         ``chord_start``: the first step reuses the last factorization (Newton again from a
         converged state whose loads changed a little: an augmentation, or the solve that ends
-        them). ``loose``: converged once the residual is LOOSE_RTOL times its start, each block
-        in units of its tolerance (an augmentation's solve, inexact while the multipliers still
-        move). ``again``: the same increment solved again (after a new search, or an
-        augmentation); unless loose, each block's scale is then the largest norm it had in any of
-        the increment's converged solves, so the tolerances are the increment's, not those of a
-        solve that starts near convergence."""
+        them, unless a new contact search came with it). ``loose``: converged once the residual
+        is LOOSE_RTOL times its start, each block in units of its tolerance (an augmentation's
+        solve, inexact while the multipliers still move). ``again``: the same increment solved
+        again (after a new search, or an augmentation); unless loose, each block's scale is then
+        the largest norm it had in any of the increment's converged solves, so the tolerances are
+        the increment's, not those of a solve that starts near convergence."""
         self.chord_start, self.loose_rtol = chord_start, LOOSE_RTOL if loose else 0.0
         self.residual_norms = []
         if not again or self.increment_scales is None:  # an increment's first solve

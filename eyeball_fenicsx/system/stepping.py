@@ -13,11 +13,12 @@
   augmented Lagrangian of contact, which solves again in a step's last increment only). Those
   solves, and the first one of a step's last increment when the scene has active sets, are
   loose (``NewtonSolver.solve``: the residual cut by 1 / LOOSE_RTOL; the augmentations' from
-  the last factorization) while the multipliers move, as
+  the last factorization, unless a new search came with them) while the multipliers move, as
   in inexact Uzawa methods (Elman and Golub, SIAM J. Numer. Anal. 31 (1994) 1645), and the
   last, once the features accept the state, is at the usual tolerances, from the last
-  factorization too (a new tangent once a chord step contracts less than Newton's reuse rule
-  asks, ``system/newton.py``); the features then check the state again.
+  factorization too (unless a new search came with it; a new tangent once a chord step
+  contracts less than Newton's reuse rule asks, ``system/newton.py``); the features then check
+  the state again.
 * The last increment of a step takes what is left of the step if that is less than
   ``STRETCH`` times its size (no sliver of an increment left over).
 * Increment size: after a converged increment that factorized n tangents, the next one is
@@ -181,7 +182,8 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     settled, searches, abandoned = x.duplicate(), 0, False
     while converged:
         searched = not problem.search_covers()
-        if searched:  # a point moved past its search's reach: search at this state, solve again
+        if searched:  # a point moved past its search's reach: search at this state, solve again (loose: with
+            # the augmentation's next update)
             if searches == MAX_SEARCHES:
                 converged, reason = False, f"contact points still outrun their search after {searches} more"
                 break
