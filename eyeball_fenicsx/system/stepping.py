@@ -181,9 +181,10 @@ def _solve_increment(problem: Problem, newton: NewtonSolver, x: PETSc.Vec,
     converged, its, norm, reason = newton.solve(x, loose=loose)
     settled, searches, abandoned = x.duplicate(), 0, False
     while converged:
+        # a point moved past its search's reach: search at this state, solve again (while the
+        # augmentations are loose, with their next update)
         searched = not problem.search_covers()
-        if searched:  # a point moved past its search's reach: search at this state, solve again (loose: with
-            # the augmentation's next update)
+        if searched:
             if searches == MAX_SEARCHES:
                 converged, reason = False, f"contact points still outrun their search after {searches} more"
                 break
