@@ -79,7 +79,7 @@ hoop_error = abs(held[1] - 2 * hoop_tension) / (2 * hoop_tension)
 # vitreous pressure presses the retina onto the choroid, where the retina-choroid contact
 # carries it. Contact keeps the retina out of the choroid to the augmented Lagrangian's
 # tolerance: it stops when no multiplier update would move its node by more than AUGMENT_DEPTH =
-# 1e-4 of the element's thickness (about 1e-5 mm on the retina), so the penetration the
+# 1e-3 of the element's thickness (about 1e-4 mm on the retina), so the penetration the
 # measures read beyond their own 0.01 mm resolution (`retina_penetration_max_mm`) must stay
 # below 1e-6 mm, and the contact must carry retina nodes. A retina through the choroid is not
 # attached: the part of the detachment left open counts the detached area (gap above 0.01 mm)

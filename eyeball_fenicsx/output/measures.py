@@ -64,7 +64,7 @@ With a detachment (the retina's outer surface "retina_outer" and the choroid's i
 * ``retina_penetration_max_mm``: how far the retina has passed through the choroid beyond
   ``PENETRATION_TOLERANCE``: max(0, -min gap - PENETRATION_TOLERANCE) over the retina's nodes.
   Contact with the choroid keeps the gap at zero to far less than that (the augmented
-  Lagrangian stops when its updates move no node by more than AUGMENT_DEPTH = 1e-4 of its
+  Lagrangian stops when its updates move no node by more than AUGMENT_DEPTH = 1e-3 of its
   element's thickness), so anything above 0 is a failure to report (contact that did not
   act, or a mesh too coarse for it), not attachment.
 * ``penetrated_area_mm2``: the reference area of "retina_outer" where the gap is below
