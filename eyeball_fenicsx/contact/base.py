@@ -13,10 +13,11 @@ points and take Uzawa's updates between Newton solves (``augmented.py``).
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
 gaps would drive the surfaces through each other by the whole step. Where a point would close
 deeper than d = max(f / (alpha W), ONSET_DEPTH h) (f the largest force out of balance on the
-slave nodes, h the thickness of the point's element), the step first takes the penalty of the
-points it would press, with a factorized tangent (compliance.py's closing step); then it is
-shortened to where the first closing point reaches its d, by regula falsi along the step. A
-step that closes nothing is not touched (Newton's quadratic convergence stays as it was).
+slave nodes, h the thickness of the point's element), or a pressing point would open, the step
+first takes the penalty of the points it would press and drops that of the points it would
+release, with a factorized tangent (compliance.py's closing step); then it is shortened to
+where the first closing point reaches its d, by regula falsi along the step. A step that
+changes no point's contact is not touched (Newton's quadratic convergence stays as it was).
 
 A contact feature plays the roles (``features/roles.py``) of nodal assembly of the residual
 and the tangent, and of an active set: the solver watches its search, its onset limit and

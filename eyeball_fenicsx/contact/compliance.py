@@ -1,31 +1,45 @@
-"""The closing step: a Newton step that presses at once every point it closes.
+"""The closing step: a Newton step that presses at once every point it closes, and releases
+every point it opens.
 
-The tangent knows nothing of an open point, so Newton's step du0 drives every point it closes
-through the master (the onset limit, ``base.py``, then shortens it to the first contact: one
-closing point per Newton iteration). Instead, where one would close deeper than the limit
-allows (``ContactFeature.onset_depth``), the points outside the tangent that du0 would press
-(shifted gap s = g + Gamma . du0 - lambda / alpha < 0; Gamma: the gap's gradient) take the
-penalty now. The step solves (K + sum_C W alpha Gamma Gamma^T) du = -F by the Woodbury
-identity: du = du0 + du(mu), with the pressures mu >= 0 at the closing set C from
+The tangent holds the points that press (the active set A) and knows nothing of the others,
+so Newton's step du0 drives every point it closes through the master (the onset limit,
+``base.py``, then shortens it to the first contact: one closing point per Newton iteration),
+and it still pulls on every point of A that it opens: those leave the tangent at the next
+iteration only, so that a band pressed over its whole width lets go of its edges a few rows
+per Newton iteration (the seed's "tighten": 320, 160, then 80 pressing points). Instead,
+where a point would close deeper than the limit allows (``ContactFeature.onset_depth``), or
+a point of A would open, the step is taken with the active set it predicts. With the shifted
+gap s = g + Gamma . du0 - lambda / alpha of each point after du0 (Gamma: the gap's gradient),
+the points outside A with s < 0 (the closing set) take the penalty now, and the points of A
+with s > 0 (the opening set) lose it. The step solves K' du = -F, K' the tangent with the
+closing points' penalty W alpha Gamma Gamma^T added and the opening points' taken out (their
+forces too), by the Woodbury identity: du = du0 + du(e), with the pressures e at the
+changing set S from
 
-    W (mu / alpha + C mu) = -W s    (per point of C),
+    e / alpha + sigma C e = -sigma s    (per point of S; sigma = +1 closing, -1 opening),
 
-where a pressure mu at the points changes the residual by -W mu Gamma (``_forces``), the
-tangent K already factorized for Newton turns that into the state change du(mu), and C mu =
-Gamma . du(mu) is the contact compliance (through everything the tangent holds: tissues,
-cavities' volumes, the pressing points' penalty). C is applied matrix-free, one triangular
-solve per product (``NewtonSolver.respond``), inside conjugate gradients on the closing
-points' pressures, preconditioned by the penalty's part alone. This is the semismooth Newton
-step of the penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the
-primal-dual active set), with C chosen again (points with mu <= 0 leave it, newly pressed ones
-join; a point left with mu < 0 when the rounds run out pulls in this step only, which the next
-Newton step corrects) at most CLOSING_ROUNDS times. C is symmetric where the tangent is; a
-contact pair's tangent is not quite (its curvature terms), and CG then still gives the
-approximate solve the step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each
-product costs about a twentieth of a factorization, and the first few do most of the work),
-which the onset limit checks afterwards, as it checks any step. Each contact feature takes its
-closing step in turn, the step already changed by the ones before (``Problem.close_gaps``), not
-in one system with them.
+where a pressure e at the points changes the residual by -W e Gamma (``_forces``), the
+tangent K already factorized for Newton turns that into the state change du(e), and C e =
+Gamma . du(e) is the contact compliance (through everything the tangent holds: tissues,
+cavities' volumes, the pressing points' penalty). At a closing point e is its new pressure;
+at an opening one, e cancels the pressure alpha (lambda / alpha - g - Gamma . du) that the
+tangent's linear model still gives it, so the point is free. C is applied matrix-free, one
+triangular solve per product (``NewtonSolver.respond``), inside GMRES on the pressures
+scaled by alpha. The system is not symmetric (sigma), but its symmetric part is
+block-diagonal and positive definite where the tangent is (C symmetric in the weights:
+I / alpha + C at the closing points, and I / alpha - C at the opening ones, which the
+Woodbury identity shows positive definite where the tangent without them is), so GMRES converges
+on it (Elman's bound for positive-real systems). This is the semismooth Newton step of the
+penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the primal-dual
+active set), with S chosen again (points of S with e <= 0 leave it, newly changing ones
+join; a point left with e < 0 when the rounds run out pulls, or presses, in this step only,
+which the next Newton step corrects) at most CLOSING_ROUNDS times. A contact pair's tangent
+is not quite symmetric (its curvature terms), and GMRES then gives the approximate solve the
+step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each product costs about a
+twentieth of a factorization, and the first few do most of the work), which the onset limit
+checks afterwards, as it checks any step. Each contact feature takes its closing step in
+turn, the step already changed by the ones before (``Problem.close_gaps``), not in one system
+with them.
 """
 from __future__ import annotations
 
@@ -39,35 +53,38 @@ from .policy import CLOSING_ROUNDS, COMPLIANCE_PROBE, COMPLIANCE_RTOL, MAX_COMPL
 Respond = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-def conjugate_gradients(apply, rhs, scaling, dot, start):
-    """Preconditioned CG for A x = rhs, ``apply(x)`` giving (A x, y(x)) for a y linear in x (the
-    state change the pressures cause), from ``start``, until the residual is COMPLIANCE_RTOL of
-    the right side's, or MAX_COMPLIANCE_PRODUCTS products (``scaling``: the diagonal preconditioner,
-    zero off the unknowns; ``dot``: the global inner product over the unknowns). Returns x and
-    y(x), summed along the way (no product more; None if x is the zero start, untouched; collective)."""
-    x = start.copy()
+def gmres(apply, rhs, dot, start):
+    """GMRES (Saad and Schultz, SIAM J. Sci. Stat. Comput. 7 (1986) 856) for A x = rhs, ``apply(x)``
+    giving (A x, y(x)) for a y linear in x (the state change the pressures cause), from ``start``,
+    until the residual is COMPLIANCE_RTOL of the right side's, or MAX_COMPLIANCE_PRODUCTS products
+    (``dot``: the global inner product over the unknowns). Returns x and y(x), combined from the
+    products' (None if x is the zero start, untouched; collective)."""
+    x, response = start.copy(), None
+    r = rhs.copy()
     if dot(x, x) > 0.0:
         product, response = apply(x)
-        r = rhs - product
-    else:
-        r, response = rhs.copy(), None
-    z = scaling * r
-    direction, rz, size = z.copy(), dot(r, z), np.sqrt(dot(rhs, rhs))
-    for _ in range(MAX_COMPLIANCE_PRODUCTS):
-        product, change = apply(direction)
-        curvature = dot(direction, product)
-        if not curvature > 0.0:  # nothing left to do, or not positive: stop where it is
+        r -= product
+    beta, size = np.sqrt(dot(r, r)), np.sqrt(dot(rhs, rhs))
+    if not beta > COMPLIANCE_RTOL * size:
+        return x, response
+    basis, changes, hessenberg = [r / beta], [], np.zeros((MAX_COMPLIANCE_PRODUCTS + 1, MAX_COMPLIANCE_PRODUCTS))
+    target = np.zeros(MAX_COMPLIANCE_PRODUCTS + 1)
+    target[0] = beta
+    for k in range(MAX_COMPLIANCE_PRODUCTS):
+        w, change = apply(basis[k])
+        changes.append(change)
+        for j, v in enumerate(basis):  # modified Gram-Schmidt
+            hessenberg[j, k] = dot(w, v)
+            w -= hessenberg[j, k] * v
+        hessenberg[k + 1, k] = np.sqrt(dot(w, w))
+        y, residual = np.linalg.lstsq(hessenberg[: k + 2, : k + 1], target[: k + 2], rcond=None)[:2]
+        done = not hessenberg[k + 1, k] > 1e-14 * beta or np.sqrt(residual.sum()) <= COMPLIANCE_RTOL * size
+        if done or k + 1 == MAX_COMPLIANCE_PRODUCTS:
             break
-        step = rz / curvature
-        x += step * direction
-        response = step * change if response is None else response + step * change
-        r -= step * product
-        if np.sqrt(dot(r, r)) <= COMPLIANCE_RTOL * size:
-            break
-        z = scaling * r
-        rz_next = dot(r, z)
-        direction, rz = z + (rz_next / rz) * direction, rz_next
-    return x, response
+        basis.append(w / hessenberg[k + 1, k])
+    x += sum(c * v for c, v in zip(y, basis))
+    step = sum(c * change for c, change in zip(y, changes))
+    return x, step if response is None else response + step
 
 
 def gap_rate(feature, du: np.ndarray, index=slice(None)) -> np.ndarray:
@@ -92,36 +109,39 @@ def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, res
 
 
 def closing_step(feature, du: np.ndarray, residual: np.ndarray, respond: Respond) -> np.ndarray | None:
-    """The change of Newton's step du (local entries) that presses the points it closes
-    (module docstring), or None if none would close deeper than its onset depth (``onset_depth``,
-    at the Newton ``residual``: the onset limit would not shorten the step; collective)."""
+    """The change of Newton's step du (local entries) that presses the points it closes and
+    releases those it opens (module docstring), or None if none would close deeper than its
+    onset depth (``onset_depth``, at the Newton ``residual``: the onset limit would not shorten
+    the step) and none would open (collective)."""
     comm = feature.solid.comm
     sel, on, _, _ = feature._pressures()
     shift = feature._point_multipliers()[sel.point] / feature.alpha[sel.point]
     predicted = sel.g + gap_rate(feature, du) - shift
-    closing = ~on & (predicted < 0.0)
-    deep = closing & (predicted < -feature.onset_depth(sel.point, residual))
-    if not comm.allreduce(bool(deep.any()), op=MPI.LOR):
+    changing = np.where(on, predicted > 0.0, predicted < 0.0)
+    deep = ~on & (predicted < -feature.onset_depth(sel.point, residual))
+    if not comm.allreduce(bool(np.any(deep | (on & changing))), op=MPI.LOR):
         return None
-    alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
-    mu = np.zeros(len(sel.point))
+    alpha = feature.alpha[sel.point]
+    sign = np.where(on, -1.0, 1.0)  # closing: the pressure e; opening: e cancels the tangent's pressure
+    e = np.zeros(len(sel.point))
     for _ in range(CLOSING_ROUNDS):
-        index = np.flatnonzero(closing)
+        index = np.flatnonzero(changing)
 
         def apply(x):
             out, change = np.zeros_like(x), pressure_response(feature, sel, index, x[index], respond)
-            out[index] = weight[index] * (x[index] / alpha[index] + gap_rate(feature, change, index))
+            out[index] = x[index] + sign[index] * alpha[index] * gap_rate(feature, change, index)
             return out, change
 
         def dot(a, b):
             return comm.allreduce(float(np.dot(a[index], b[index])), op=MPI.SUM)
-        rhs, scaling = np.zeros_like(mu), np.zeros_like(mu)
-        rhs[index], scaling[index] = -weight[index] * predicted[index], alpha[index] / weight[index]
-        mu, change = conjugate_gradients(apply, rhs, scaling, dot, np.where(closing, mu, 0.0))
+        rhs = np.zeros_like(e)
+        rhs[index] = -sign[index] * alpha[index] * predicted[index]
+        e, change = gmres(apply, rhs, dot, np.where(changing, e, 0.0))
         if change is None:  # no step taken: no pressure
             change = np.zeros_like(du)
-        chosen = (closing & (mu > 0.0)) | (~on & (predicted + gap_rate(feature, change) < 0.0))
-        if not comm.allreduce(bool(np.any(chosen != closing)), op=MPI.LOR):
+        after = predicted + gap_rate(feature, change)
+        chosen = np.where(changing, e > 0.0, np.where(on, after > 0.0, after < 0.0))
+        if not comm.allreduce(bool(np.any(chosen != changing)), op=MPI.LOR):
             break
-        closing = chosen
+        changing = chosen
     return change

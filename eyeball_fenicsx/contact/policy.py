@@ -20,8 +20,8 @@ PENALTY_GROWTH_TEST = 0.5  # an augmentation that removes less than half of the 
 PENALTY_GROWTH = 2.0  # ... multiplies the penalty by this for the next passes of the increment,
 MAX_PENALTY_GROWTH = 16.0  # up to this many times the elements' penalty
 AITKEN_BOUNDS = (0.1, 10.0)  # the relaxation of the multipliers' updates stays within these
-CLOSING_ROUNDS = 3  # closing step (compliance.py): the closing set chosen again at most this many times
-COMPLIANCE_RTOL = 0.1  # ... its conjugate gradients stop at this relative residual (an inexact step)
+CLOSING_ROUNDS = 3  # closing step (compliance.py): the changing set chosen again at most this many times
+COMPLIANCE_RTOL = 0.1  # ... its GMRES stops at this relative residual (an inexact step)
 MAX_COMPLIANCE_PRODUCTS = 60  # ... or after this many products (a triangular solve each)
 COMPLIANCE_PROBE = 1e-6  # the largest entry of the change whose difference gives the gaps' rates (mm, MPa)
 # Newton's options (``system/newton.py``) with contact: the onset limit already shortens the
