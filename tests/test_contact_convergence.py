@@ -176,7 +176,8 @@ def test_points_opening_inside_a_newton_step_cost_no_newton_iteration():
     increment then takes at most two Newton iterations more than the same pull without the
     contact (1): one as that release is solved to a tenth only (COMPLIANCE_RTOL), one for the
     solve at the usual tolerances that ends the augmentations. Releasing the points at the next
-    iterations instead, as before the closing step released any, took 8."""
+    iterations instead, as before the closing step released any, took 8. (That ``adjust`` puts
+    the touching points in the tangent is the clearance test's case 0.05 above.)"""
     force, iterations = _pulled_apart(True)
     assert force == 0.0
     assert iterations <= _pulled_apart(False)[1] + 2

@@ -24,16 +24,18 @@ Gamma . du(e) is the contact compliance (through everything the tangent holds: t
 cavities' volumes, the pressing points' penalty). At a closing point e is its new pressure;
 at an opening one, e cancels the pressure alpha (lambda / alpha - g - Gamma . du) that the
 tangent's linear model still gives it, so the point is free. C is applied matrix-free, one
-triangular solve per product (``NewtonSolver.respond``), inside GMRES on the pressures
-scaled by alpha. The system is not symmetric (sigma), but its symmetric part is
-block-diagonal and positive definite where the tangent is (C symmetric in the weights:
-I / alpha + C at the closing points, and I / alpha - C at the opening ones, which the
-Woodbury identity shows positive definite where the tangent without them is), so GMRES converges
-on it (Elman's bound for positive-real systems). This is the semismooth Newton step of the
+triangular solve per product (``NewtonSolver.respond``), inside GMRES on the system's rows
+scaled by alpha, in the plain inner product of the pressures. The system is not symmetric
+(sigma); in the inner product weighted by W / alpha its symmetric part is block-diagonal and
+positive definite where the tangent is (W C is symmetric there: I / alpha + C at the closing
+points, and I / alpha - C at the opening ones, which the Woodbury identity shows positive
+definite where the tangent without them is), the case of Elman's bound for GMRES on
+positive-real systems; the plain inner product, which the code uses, is not that one, and
+no bound is claimed for it (the products and rounds are capped). This is the semismooth Newton step of the
 penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the primal-dual
 active set), with S chosen again (points of S with e <= 0 leave it, newly changing ones
-join; a point left with e < 0 when the rounds run out pulls, or presses, in this step only,
-which the next Newton step corrects) at most CLOSING_ROUNDS times. A contact pair's tangent
+join; a point left with e < 0 when the rounds run out pulls (closing) or is let through
+(opening) in this step only, which the next Newton step corrects) at most CLOSING_ROUNDS times. A contact pair's tangent
 is not quite symmetric (its curvature terms), and GMRES then gives the approximate solve the
 step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each product costs about a
 twentieth of a factorization, and the first few do most of the work), which the onset limit
@@ -77,8 +79,10 @@ def gmres(apply, rhs, dot, start):
             hessenberg[j, k] = dot(w, v)
             w -= hessenberg[j, k] * v
         hessenberg[k + 1, k] = np.sqrt(dot(w, w))
-        y, residual = np.linalg.lstsq(hessenberg[: k + 2, : k + 1], target[: k + 2], rcond=None)[:2]
-        done = not hessenberg[k + 1, k] > 1e-14 * beta or np.sqrt(residual.sum()) <= COMPLIANCE_RTOL * size
+        h = hessenberg[: k + 2, : k + 1]
+        y = np.linalg.lstsq(h, target[: k + 2], rcond=None)[0]
+        residual = np.linalg.norm(h @ y - target[: k + 2])  # lstsq's own is empty if h is rank deficient
+        done = not hessenberg[k + 1, k] > 1e-14 * beta or residual <= COMPLIANCE_RTOL * size
         if done or k + 1 == MAX_COMPLIANCE_PRODUCTS:
             break
         basis.append(w / hessenberg[k + 1, k])
