@@ -11,13 +11,14 @@ residual and tangent of the points that carry a pressure (``_forces``).
 points and take Uzawa's updates between Newton solves (``augmented.py``).
 
 **Contact onset.** The tangent knows nothing of an open point, so a Newton step that closes
-gaps would drive the surfaces through each other by the whole step. Where a point would close
-deeper than d = max(f / (alpha W), ONSET_DEPTH h) (f the largest force out of balance on the
-slave nodes, h the thickness of the point's element), or a pressing point would open, the step
-first takes the penalty of the points it would press and drops that of the points it would
-release, with a factorized tangent (compliance.py's closing step); then it is shortened to
-where the first closing point reaches its d, by regula falsi along the step. A step that
-changes no point's contact is not touched (Newton's quadratic convergence stays as it was).
+gaps would drive the surfaces through each other by the whole step. A step that would close a
+point, or open a pressing one, first takes the penalty of the points it would press and drops
+that of the points it would release, with a factorized tangent (compliance.py's closing step);
+then, where a point would still close deeper than d = max(f / (alpha W), ONSET_DEPTH h) (f the
+largest force out of balance on the slave nodes, h the thickness of the point's element), it
+is shortened to where the first closing point reaches its d, by regula falsi along the step.
+A step that changes no point's contact is not touched (Newton's quadratic convergence stays as
+it was).
 
 A contact feature plays the roles (``features/roles.py``) of nodal assembly of the residual
 and the tangent, and of an active set: the solver watches its search, its onset limit and
@@ -177,9 +178,9 @@ class ContactFeature(AugmentedLagrangian, Feature):
         work.scatter_forward()
         return work.array.copy()
 
-    def closing_step(self, du: np.ndarray, residual: np.ndarray, respond: Respond) -> np.ndarray | None:
+    def closing_step(self, du: np.ndarray, respond: Respond) -> np.ndarray | None:
         """compliance.py's closing step (a smoothed law has every near point in its tangent)."""
-        return closing_step(self, du, residual, respond) if self.active and self.smoothing == 0.0 else None
+        return closing_step(self, du, respond) if self.active and self.smoothing == 0.0 else None
 
     def _ghosted(self, values):
         """A mixed vector's owned entries, with this rank's ghost entries filled (collective)."""

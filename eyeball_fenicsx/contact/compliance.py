@@ -3,12 +3,13 @@ every point it opens.
 
 The tangent holds the points that press (the active set A) and knows nothing of the others,
 so Newton's step du0 drives every point it closes through the master (the onset limit,
-``base.py``, then shortens it to the first contact: one closing point per Newton iteration),
-and it still pulls on every point of A that it opens: those leave the tangent at the next
+``base.py``, then shortens it to the first contact: one closing point per Newton iteration;
+a point that closes less than its onset depth enters the tangent at the next iteration), and
+it still pulls on every point of A that it opens: those leave the tangent at the next
 iteration only, so that a band pressed over its whole width lets go of its edges a few rows
 per Newton iteration (the seed's "tighten": 320, 160, then 80 pressing points). Instead,
-where a point would close deeper than the limit allows (``ContactFeature.onset_depth``), or
-a point of A would open, the step is taken with the active set it predicts. With the shifted
+where a point would close or a point of A would open, the step is taken with the active set
+it predicts. With the shifted
 gap s = g + Gamma . du0 - lambda / alpha of each point after du0 (Gamma: the gap's gradient),
 the points outside A with s < 0 (the closing set) take the penalty now, and the points of A
 with s > 0 (the opening set) lose it. The step solves K' du = -F, K' the tangent with the
@@ -25,17 +26,18 @@ cavities' volumes, the pressing points' penalty). At a closing point e is its ne
 at an opening one, e cancels the pressure alpha (lambda / alpha - g - Gamma . du) that the
 tangent's linear model still gives it, so the point is free. C is applied matrix-free, one
 triangular solve per product (``NewtonSolver.respond``), inside GMRES on the system's rows
-scaled by alpha, in the plain inner product of the pressures. The system is not symmetric
-(sigma); in the inner product weighted by W / alpha its symmetric part is block-diagonal and
+scaled by alpha, in the inner product of the pressures weighted by W / alpha. The system is
+not symmetric (sigma), but in that inner product its symmetric part is block-diagonal and
 positive definite where the tangent is (W C is symmetric there: I / alpha + C at the closing
 points, and I / alpha - C at the opening ones, which the Woodbury identity shows positive
-definite where the tangent without them is), the case of Elman's bound for GMRES on
-positive-real systems; the plain inner product, which the code uses, is not that one, and
-no bound is claimed for it (the products and rounds are capped). This is the semismooth Newton step of the
-penalty law (Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the primal-dual
-active set), with S chosen again (points of S with e <= 0 leave it, newly changing ones
-join; a point left with e < 0 when the rounds run out pulls (closing) or is let through
-(opening) in this step only, which the next Newton step corrects) at most CLOSING_ROUNDS times. A contact pair's tangent
+definite where the tangent without them is), so GMRES converges on it (Elman's bound for
+positive-real systems). This is the semismooth Newton step of the penalty law
+(Hintermueller, Ito and Kunisch, SIAM J. Optim. 13 (2003) 865: the primal-dual active set),
+with S chosen again (points of S with e <= 0 leave it, newly changing ones join; a point left
+with e < 0 when the rounds run out pulls (closing) or is let through (opening) in this step
+only, which the next Newton step corrects) at most CLOSING_ROUNDS times. Where many points
+change, the rounds may not settle (the seed's "tighten", 8 of 240 points flipping between
+rounds); the next Newton step takes the set from the state reached. A contact pair's tangent
 is not quite symmetric (its curvature terms), and GMRES then gives the approximate solve the
 step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each product costs about a
 twentieth of a factorization, and the first few do most of the work), which the onset limit
@@ -112,20 +114,18 @@ def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, res
     return respond(rows.ravel(), r.ravel())
 
 
-def closing_step(feature, du: np.ndarray, residual: np.ndarray, respond: Respond) -> np.ndarray | None:
+def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None:
     """The change of Newton's step du (local entries) that presses the points it closes and
-    releases those it opens (module docstring), or None if none would close deeper than its
-    onset depth (``onset_depth``, at the Newton ``residual``: the onset limit would not shorten
-    the step) and none would open (collective)."""
+    releases those it opens (module docstring), or None if it changes no point's contact
+    (collective)."""
     comm = feature.solid.comm
     sel, on, _, _ = feature._pressures()
     shift = feature._point_multipliers()[sel.point] / feature.alpha[sel.point]
     predicted = sel.g + gap_rate(feature, du) - shift
     changing = np.where(on, predicted > 0.0, predicted < 0.0)
-    deep = ~on & (predicted < -feature.onset_depth(sel.point, residual))
-    if not comm.allreduce(bool(np.any(deep | (on & changing))), op=MPI.LOR):
+    if not comm.allreduce(bool(np.any(changing)), op=MPI.LOR):
         return None
-    alpha = feature.alpha[sel.point]
+    alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
     sign = np.where(on, -1.0, 1.0)  # closing: the pressure e; opening: e cancels the tangent's pressure
     e = np.zeros(len(sel.point))
     for _ in range(CLOSING_ROUNDS):
@@ -137,7 +137,7 @@ def closing_step(feature, du: np.ndarray, residual: np.ndarray, respond: Respond
             return out, change
 
         def dot(a, b):
-            return comm.allreduce(float(np.dot(a[index], b[index])), op=MPI.SUM)
+            return comm.allreduce(float(np.sum(weight[index] / alpha[index] * a[index] * b[index])), op=MPI.SUM)
         rhs = np.zeros_like(e)
         rhs[index] = -sign[index] * alpha[index] * predicted[index]
         e, change = gmres(apply, rhs, dot, np.where(changing, e, 0.0))

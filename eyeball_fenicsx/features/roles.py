@@ -108,9 +108,9 @@ class ActiveSet(Protocol):
         """Collective: the last search (``begin_increment``) still holds everything the converged
         state may touch; False if it must search again, and Newton solve again."""
 
-    def closing_step(self, du: np.ndarray, residual: np.ndarray, respond: Callable) -> np.ndarray | None:
+    def closing_step(self, du: np.ndarray, respond: Callable) -> np.ndarray | None:
         """Collective: the change of Newton's state change du (local entries of the bordered
-        vector; the Newton ``residual``'s too) for what it changes in the set, through ``respond``
+        vector) for what it changes in the set, through ``respond``
         (``NewtonSolver.respond``: the state change that cancels a residual change, by the
         factorized tangent); None: none."""
 

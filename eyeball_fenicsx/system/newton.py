@@ -191,16 +191,16 @@ class NewtonSolver:
 
     def _limit_step(self, x, y):
         """Line-search precheck: press at once the contact points the Newton step x -> x - y
-        closes (``ActiveSet.closing_step``), then shorten it where it would still close a contact
-        gap too far (``ActiveSet.step_fraction``) or invert an element (``shorten_while_inverting``);
-        returns whether y changed. A step that inverts an element however short, or that swings
-        (``_swings``), is not taken: y is zeroed and the solve ends."""
+        closes and release those it opens (``ActiveSet.closing_step``), then shorten it where it
+        would still close a contact gap too far (``ActiveSet.step_fraction``) or invert an element
+        (``shorten_while_inverting``); returns whether y changed. A step that inverts an element
+        however short, or that swings (``_swings``), is not taken: y is zeroed and the solve ends."""
         fraction, closed, residual = 1.0, False, self.snes.getFunction()[0].array_r
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
             ksp = self.snes.getKSP()
             if ksp.getType() == "preonly" and ksp.getPC().getType() in ("lu", "cholesky"):  # it holds the
-                closed = self.problem.close_gaps(y, residual, self.respond)  # factorization of the step's tangent
+                closed = self.problem.close_gaps(y, self.respond)  # factorization of the step's tangent
         if self.first_step is None:  # the Newton step as solved and closing gaps, before any limit
             self.first_step = self._step_length(y)
         if self.problem.limits_steps:

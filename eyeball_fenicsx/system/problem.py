@@ -262,13 +262,13 @@ class Problem:
         solves again anyway; collective)."""
         return all([f.augment(solving) for f in self.active_sets])
 
-    def close_gaps(self, y: PETSc.Vec, residual: np.ndarray, respond: Callable) -> bool:
-        """Newton's step x -> x - y (a bordered vector) changed for the contact it makes, by each
-        active set in turn (``ActiveSet.closing_step``; the state at x, its residual's local
-        entries); returns whether y changed (collective)."""
+    def close_gaps(self, y: PETSc.Vec, respond: Callable) -> bool:
+        """Newton's step x -> x - y (a bordered vector) changed for the contacts it makes and
+        breaks, by each active set in turn (``ActiveSet.closing_step``; the state at x); returns
+        whether y changed (collective)."""
         changed = False
         for f in self.active_sets:
-            change = f.closing_step(-y.array_r, residual, respond)
+            change = f.closing_step(-y.array_r, respond)
             if change is not None:
                 y.array[:] -= change
                 changed = True
