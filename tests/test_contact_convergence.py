@@ -183,6 +183,24 @@ def test_points_opening_inside_a_newton_step_cost_no_newton_iteration():
     assert iterations <= _pulled_apart(False)[1] + 2
 
 
+def test_the_closing_steps_gmres_takes_a_step_from_a_start_within_its_tolerance():
+    """The closing step's GMRES starts each round from the pressures of the round before, found for
+    another set of points. In the segmental buckle's "pressurize" the one point left in the last
+    round kept its pressure from the round before, within a tenth (COMPLIANCE_RTOL) of its own
+    equation: the corrected Newton step came out zero, and Newton stood still, 6.727e-5 N five
+    times, until it stagnated. From a start within the tolerance GMRES now still takes a step,
+    which on a one-point set (here: 25.8 e = 5.27e-3, started 5 % off) is the exact solution,
+    and the state change comes with it (y(x) = 2 x here, summed from the start's and the step's)."""
+    from eyeball_fenicsx.contact.compliance import gmres
+
+    def apply(x):
+        return 25.8 * x, 2.0 * x
+    rhs = np.array([5.27e-3])
+    x, y = gmres(apply, rhs, lambda a, b: float(np.dot(a, b)), 1.05 * rhs / 25.8)
+    assert x[0] == pytest.approx(rhs[0] / 25.8, rel=1e-12)
+    assert y[0] == pytest.approx(2.0 * x[0], rel=1e-12)
+
+
 # -- 2. Hertz: the augmented Lagrangian's answer does not depend on the penalty ----------------
 C10, RADIUS, DEPTH = 0.5, 10.0, 0.1
 PENALTY_MULTIPLES = (0.1, 1.0, 10.0, 100.0)

@@ -61,15 +61,17 @@ def gmres(apply, rhs, dot, start):
     """GMRES (Saad and Schultz, SIAM J. Sci. Stat. Comput. 7 (1986) 856) for A x = rhs, ``apply(x)``
     giving (A x, y(x)) for a y linear in x (the state change the pressures cause), from ``start``,
     until the residual is COMPLIANCE_RTOL of the right side's, or MAX_COMPLIANCE_PRODUCTS products
-    (``dot``: the global inner product over the unknowns). Returns x and y(x), combined from the
-    products' (None if x is the zero start, untouched; collective)."""
+    (``dot``: the global inner product over the unknowns). A start within that tolerance still
+    takes a step (unless it solves the system exactly): it is the round before's, for another set
+    of points, and taken as it is it can cancel Newton's step (the test of this). Returns x and
+    y(x), combined from the products' (None if x is the zero start, untouched; collective)."""
     x, response = start.copy(), None
     r = rhs.copy()
     if dot(x, x) > 0.0:
         product, response = apply(x)
         r -= product
     beta, size = np.sqrt(dot(r, r)), np.sqrt(dot(rhs, rhs))
-    if not beta > COMPLIANCE_RTOL * size:
+    if not beta > 0.0:
         return x, response
     basis, changes, hessenberg = [r / beta], [], np.zeros((MAX_COMPLIANCE_PRODUCTS + 1, MAX_COMPLIANCE_PRODUCTS))
     target = np.zeros(MAX_COMPLIANCE_PRODUCTS + 1)
