@@ -4,7 +4,7 @@
 field, projection and its derivatives; ``search``: candidate pairs; ``law``: pressure from
 the gap; ``surface``: the solid's surfaces and the default penalty; ``base``: what every
 contact feature shares (assembly, the Newton-step limit at contact onset, the report);
-``augmented``: its nodal multipliers and their updates; ``compliance``: the closing step (and releasing);
+``augmented``: its nodal multipliers and their updates; ``compliance``: the closing step;
 ``master``: the master surface over the ranks; ``pair``: two deformable surfaces;
 ``rigid``: a surface against a rigid plane, sphere or cylinder; ``policy``: every policy
 constant.

@@ -9,9 +9,8 @@ it still pulls on every point of A that it opens: those leave the tangent at the
 iteration only, so that a band pressed over its whole width lets go of its edges a few rows
 per Newton iteration (the seed's "tighten": 320, 160, then 80 pressing points). Instead,
 where a point would close or a point of A would open, the step is taken with the active set
-it predicts. With the shifted
-gap s = g + Gamma . du0 - lambda / alpha of each point after du0 (Gamma: the gap's gradient),
-the points outside A with s < 0 (the closing set) take the penalty now, and the points of A
+it predicts. With the shifted gap s = g + Gamma . du0 - lambda / alpha of each point after du0
+(Gamma: the gap's gradient), the points outside A with s < 0 (the closing set) take the penalty now, and the points of A
 with s > 0 (the opening set) lose it. The step solves K' du = -F, K' the tangent with the
 closing points' penalty W alpha Gamma Gamma^T added and the opening points' taken out (their
 forces too), by the Woodbury identity: du = du0 + du(e), with the pressures e at the
@@ -122,12 +121,11 @@ def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None
     (collective)."""
     comm = feature.solid.comm
     sel, on, _, _ = feature._pressures()
-    shift = feature._point_multipliers()[sel.point] / feature.alpha[sel.point]
-    predicted = sel.g + gap_rate(feature, du) - shift
+    alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
+    predicted = sel.g + gap_rate(feature, du) - feature._point_multipliers()[sel.point] / alpha
     changing = np.where(on, predicted > 0.0, predicted < 0.0)
     if not comm.allreduce(bool(np.any(changing)), op=MPI.LOR):
         return None
-    alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
     sign = np.where(on, -1.0, 1.0)  # closing: the pressure e; opening: e cancels the tangent's pressure
     e = np.zeros(len(sel.point))
     for _ in range(CLOSING_ROUNDS):
