@@ -19,6 +19,7 @@ from eyeball_fenicsx.mechanics.materials import NeoHooke
 from eyeball_fenicsx.mechanics.solid import MixedSolid
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.load import built_mesh
+from eyeball_fenicsx.output.eye_pictures import eye_measures_png
 from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
 from eyeball_fenicsx.scene.loader import load_scene
 
@@ -200,6 +201,20 @@ def test_scene_writes_measures_and_pictures(buckled):
         assert pictures == {"section_at_rest.png", "section_inflate.png", "eye_measures.png", "retina_gap_at_rest.png",
                             "retina_gap_inflate.png", "surface_at_rest.png", "surface_inflate.png"}
         assert all(os.path.getsize(os.path.join(out, name)) > 10_000 for name in pictures)
+
+
+def test_the_measures_picture_drawn_by_every_rank_is_the_one_rank_picture(buckled, tmp_path):
+    """The run's eye_measures.png, its rows drawn by the ranks apart (``plot_curves``), has the
+    pixels of the same picture drawn whole on one rank (with half-pixel margins it did not: 4088
+    pixels of the top row's frame differed on 2 ranks)."""
+    _, _, out = buckled
+    if COMM.rank == 0:
+        from PIL import Image
+        eye_measures_png(read_summary(out)["steps"], str(tmp_path / "one_rank.png"))
+        together, alone = (np.asarray(Image.open(path)) for path in (os.path.join(out, "eye_measures.png"),
+                                                                     tmp_path / "one_rank.png"))
+        assert together.shape == alone.shape == (330 * 7, 3 * 440, 3)  # its measures fill 7 rows of 3
+        assert np.array_equal(together, alone)
 
 
 @pytest.mark.parametrize("keys, fragment", [

@@ -8,7 +8,8 @@ after the ``EyeMeasures`` (output/measures.py) whose results it draws: after eac
 measures just interpolated) and, with a detachment, ``retina_gap_<step>.png`` (the gap they just
 measured, flattened), and at the end of a run ``eye_measures.png`` (the scalar measures of that
 run's steps, from its summary). After a step the ranks draw at the same time: rank 0 the outer
-surface, the last rank the section and the gap map. Each figure has fixed margins (no layout
+surface, the last rank the section and the gap map; at the end each rank draws its share of the
+measures' rows (output/files.py's ``plot_curves``). Each figure has fixed margins (no layout
 pass) and is rendered once, on its own Agg canvas (output/files.py); the section's
 (``SectionPicture``), like the outer surface's (output/eye_surface.py), is built for the first
 step and drawn again after the others.
@@ -29,6 +30,8 @@ from .measures import DETACHED_GAP, EyeMeasures, polar_angle
 from .observer import Observer
 
 if TYPE_CHECKING:
+    from mpi4py import MPI
+
     from ..mechanics.solid import MixedSolid
     from ..meshing.load import MeshData
     from ..system.problem import Problem
@@ -168,9 +171,10 @@ def retina_gap_png(azimuth: np.ndarray, polar: np.ndarray, gap: np.ndarray, path
     save_figure_atomic(figure, path, dpi=110)
 
 
-def eye_measures_png(steps: list[dict], path: str) -> None:
+def eye_measures_png(steps: list[dict], path: str, comm: MPI.Comm | None = None) -> None:
     """Curves of the scalar eye measures over the steps of a run (one plot a measure, one
-    point a step, in the order of ``steps``). Call on one rank.
+    point a step, in the order of ``steps``). Call on one rank, or on every rank of ``comm``
+    (they draw it together: ``plot_curves``).
 
     Args:
         steps: summary.json's "steps"; those without an "eye" entry are left out.
@@ -182,7 +186,7 @@ def eye_measures_png(steps: list[dict], path: str) -> None:
     rows = [flatten(step["eye"]) for step in steps]
     names = [name for name in rows[0] if all(isinstance(row.get(name), float) for row in rows)]
     curves = {label(f"eye.{name}"): [row[name] for row in rows] for name in names}
-    plot_curves(path, list(range(1, len(rows) + 1)), curves, "step", [step["name"] for step in steps])
+    plot_curves(path, list(range(1, len(rows) + 1)), curves, "step", [step["name"] for step in steps], comm=comm)
 
 
 def step_pictures(step: str) -> dict[str, str]:
@@ -228,5 +232,6 @@ class EyePictures(Observer):
         self.solid.comm.Barrier()  # the run's page (output/report.py, rank 0) shows them next
 
     def finish(self, summary: dict) -> None:
-        if self.out_dir and self.solid.comm.rank == 0:
-            eye_measures_png(summary["steps"], os.path.join(self.out_dir, "eye_measures.png"))
+        """Collective: the eye measures' picture, drawn by every rank (``eye_measures_png``)."""
+        if self.out_dir:
+            eye_measures_png(summary["steps"], os.path.join(self.out_dir, "eye_measures.png"), self.solid.comm)

@@ -118,29 +118,44 @@ def new_figure(figsize: tuple[float, float]):
 
 
 def save_figure_atomic(figure, path: str, dpi: int = 150) -> None:
-    """Render a matplotlib figure once on an Agg canvas at ``dpi`` and write it as an RGB PNG
-    (the figure's background is opaque; zlib level 3) under a temporary name, then rename it
-    into place (call on the one rank that draws)."""
+    """Render a matplotlib figure once on an Agg canvas at ``dpi`` and write it as a PNG
+    (``save_pixels_atomic``; call on the one rank that draws)."""
+    save_pixels_atomic(render(figure, dpi), path)
+
+
+def render(figure, dpi: int) -> np.ndarray:
+    """The figure's RGB pixels (rows, columns, 3), rendered once on an Agg canvas at ``dpi`` (its
+    background is opaque)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from PIL import Image
     figure.dpi = dpi
     canvas = figure.canvas if isinstance(figure.canvas, FigureCanvasAgg) else FigureCanvasAgg(figure)
     canvas.draw()
+    return np.ascontiguousarray(np.asarray(canvas.buffer_rgba())[..., :3])
+
+
+def save_pixels_atomic(pixels: np.ndarray, path: str) -> None:
+    """Write RGB pixels as a PNG (zlib level 3) under a temporary name, then rename it into place."""
+    from PIL import Image
     tmp = f"{path}.tmp{os.getpid()}.png"
-    Image.fromarray(np.ascontiguousarray(np.asarray(canvas.buffer_rgba())[..., :3])).save(tmp, format="png",
-                                                                                         compress_level=3)
+    Image.fromarray(pixels).save(tmp, format="png", compress_level=3)
     os.replace(tmp, path)
 
 
 # The margins (inches) of each small plot of ``plot_curves`` in its 4 x 3 in cell: room for
 # the y tick labels on the left, the title above, the slanted x tick labels and the x label below.
-CELL, MARGINS = (4.0, 3.0), {"left": 0.8, "right": 0.15, "top": 0.35, "bottom": 0.8}
+# At DPI, the cells and the margins are whole pixels, so that rows drawn apart stack into the
+# same picture (an edge half a pixel off would be snapped either way by round-off).
+DPI = 110
+CELL, MARGINS = (4.0, 3.0), {"left": 88 / DPI, "right": 16 / DPI, "top": 38 / DPI, "bottom": 88 / DPI}
 
 
 def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xticklabels: list[str] | None = None,
-                bands: dict[str, tuple[list, list]] | None = None, band_label: str = "") -> None:
-    """A PNG of small plots, one curve each, against the same x (matplotlib Agg; call on one rank),
-    three in a row, each in a cell of fixed margins (``MARGINS``).
+                bands: dict[str, tuple[list, list]] | None = None, band_label: str = "",
+                comm: MPI.Comm | None = None) -> None:
+    """A PNG of small plots, one curve each, against the same x (matplotlib Agg), three in a
+    row, each in a cell of fixed margins (``MARGINS``). Call on one rank, or on every rank of
+    ``comm``: then each draws its share of the rows and rank 0 stacks them and writes the
+    picture, the same pixels in about 1 / size of the time.
 
     Args:
         curves: {title: y values}.
@@ -150,23 +165,32 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
     """
     columns = min(3, len(curves))
     lines = -(-len(curves) // columns)
-    width, height = CELL[0] * columns, CELL[1] * lines
-    figure = new_figure((width, height))
-    for k, (name, y) in enumerate(curves.items()):
-        line, column = divmod(k, columns)
-        ax = figure.add_axes(((column * CELL[0] + MARGINS["left"]) / width,
-                              ((lines - 1 - line) * CELL[1] + MARGINS["bottom"]) / height,
-                              (CELL[0] - MARGINS["left"] - MARGINS["right"]) / width,
-                              (CELL[1] - MARGINS["top"] - MARGINS["bottom"]) / height))
-        ax.plot(x, y, "o-")
-        if bands and name in bands:
-            ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
-            ax.legend(fontsize=7)
-        ax.set_xlabel(xlabel)
-        _title(ax, name)
-        if xticklabels is not None:
-            ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
-    save_figure_atomic(figure, path, dpi=110)
+    size, rank = (comm.size, comm.rank) if comm is not None else (1, 0)
+    first, last = lines * rank // size, lines * (rank + 1) // size  # this rank's rows
+    pixels = np.zeros((0, round(CELL[0] * columns * DPI), 3), dtype=np.uint8)
+    if last > first:
+        width, height = CELL[0] * columns, CELL[1] * (last - first)
+        figure = new_figure((width, height))
+        for k, (name, y) in enumerate(list(curves.items())[first * columns: last * columns]):
+            line, column = divmod(k, columns)
+            ax = figure.add_axes(((column * CELL[0] + MARGINS["left"]) / width,
+                                  ((last - first - 1 - line) * CELL[1] + MARGINS["bottom"]) / height,
+                                  (CELL[0] - MARGINS["left"] - MARGINS["right"]) / width,
+                                  (CELL[1] - MARGINS["top"] - MARGINS["bottom"]) / height))
+            ax.plot(x, y, "o-")
+            if bands and name in bands:
+                ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
+                ax.legend(fontsize=7)
+            ax.set_xlabel(xlabel)
+            _title(ax, name)
+            if xticklabels is not None:
+                ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
+        pixels = render(figure, DPI)
+    if comm is not None:
+        pixels = comm.gather(pixels, root=0)
+        pixels = np.concatenate(pixels) if rank == 0 else None
+    if rank == 0:
+        save_pixels_atomic(pixels, path)
 
 
 def _title(ax, name: str) -> None:
