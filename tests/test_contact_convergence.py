@@ -1,5 +1,7 @@
-"""Contact whose answer converges: the patch test at every integration point, Hertz indentation
-that does not depend on the penalty, and a stiff ring tightened onto a faceted cylinder.
+"""Contact whose answer converges: the patch test at every integration point (with, beside it,
+the closing step's cases: a clearance closed, cubes pulled apart, its GMRES, a low tire sutured
+onto the eye), Hertz indentation that does not depend on the penalty, and a stiff ring tightened
+onto a faceted cylinder.
 
 Written for the Gauss-point contact with augmented-Lagrangian (Uzawa) updates: the slave surface
 is integrated at its facets' 2 x 2 Gauss points, the master has a continuous (nodally averaged)
@@ -206,12 +208,12 @@ def test_the_closing_steps_gmres_takes_a_step_from_a_start_within_its_tolerance(
 
 def _low_tire(suture_increments):
     """The shipped segmental buckle on the eye of n_circ 24 with a tire 0.5 mm high: its "suture"
-    step's increments (converged and failed) and the buckle's height after it."""
+    step's converged increments and the buckle's height after it."""
     scene = load_scene(os.path.join(os.path.dirname(__file__), "..", "demos", "segmental_buckle.toml"),
                        overrides={"mesh.n_circ": 24, "mesh.tire.height": 0.5})
-    scene.steps[1].increments = suture_increments
-    summary = scene.run()
-    return summary["steps"][1]["increments"], summary["steps"][1]["eye"]["buckle_height_mm"]
+    next(step for step in scene.steps if step.name == "suture").increments = suture_increments
+    suture = next(step for step in scene.run()["steps"] if step["name"] == "suture")
+    return suture["increments"], suture["eye"]["buckle_height_mm"]
 
 
 def test_a_low_tire_pulled_in_by_its_sutures_converges_in_one_increment():
@@ -224,7 +226,7 @@ def test_a_low_tire_pulled_in_by_its_sutures_converges_in_one_increment():
     increments, height = _low_tire(None)
     assert len(increments) == 1 and increments[0]["load_factor"] == pytest.approx(1.0)
     halves, reference = _low_tire(2)
-    assert [i["load_factor"] for i in halves] == pytest.approx([0.5, 1.0])
+    assert halves[-1]["load_factor"] == pytest.approx(1.0)
     assert height == pytest.approx(reference, rel=1e-3)
 
 

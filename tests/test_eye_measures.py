@@ -14,12 +14,13 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 from test_scenes import read_summary, scene_file
 
-from eyeball_fenicsx.errors import SceneError
+from eyeball_fenicsx.errors import OutputError, SceneError
 from eyeball_fenicsx.mechanics.materials import NeoHooke
 from eyeball_fenicsx.mechanics.solid import MixedSolid
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.output.eye_pictures import eye_measures_png
+from eyeball_fenicsx.output.files import plot_curves
 from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
 from eyeball_fenicsx.scene.loader import load_scene
 
@@ -215,6 +216,19 @@ def test_the_measures_picture_drawn_by_every_rank_is_the_one_rank_picture(buckle
                                                                      tmp_path / "one_rank.png"))
         assert together.shape == alone.shape == (330 * 7, 3 * 440, 3)  # its measures fill 7 rows of 3
         assert np.array_equal(together, alone)
+
+
+def test_a_failure_of_a_picture_the_ranks_draw_together_is_an_error_on_every_rank(tmp_path_factory):
+    """``plot_curves`` with a communicator: a picture rank 0 cannot write, or rows one rank cannot
+    draw (here the last rank's: a curve one value short), is an OutputError on every rank, not a
+    rank left waiting for the others in a collective."""
+    curves = {f"measure {k}": [0.0, 1.0] for k in range(5)}
+    with pytest.raises(OutputError, match="could not write"):
+        plot_curves(os.path.join("/no such folder", "eye_measures.png"), [1, 2], curves, "step", comm=COMM)
+    curves["the last row's, one value short"] = [0.0]
+    folder = COMM.bcast(str(tmp_path_factory.mktemp("pictures")) if COMM.rank == 0 else None, root=0)
+    with pytest.raises(OutputError, match="could not draw"):
+        plot_curves(os.path.join(folder, "eye_measures.png"), [1, 2], curves, "step", comm=COMM)
 
 
 @pytest.mark.parametrize("keys, fragment", [

@@ -1,4 +1,5 @@
-"""What a run writes: field output (XDMF for ParaView), summary.json and pictures.
+"""What a run writes: field output (XDMF for ParaView), summary.json and pictures (small plots
+of curves drawn by one rank, or by the ranks together, each its rows: ``plot_curves``).
 
 Every file appears atomically: summary.json and the PNG pictures are written to a temporary
 name and renamed; the XDMF/HDF5 pair is written in a hidden folder and moved into place when
@@ -154,8 +155,9 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
                 comm: MPI.Comm | None = None) -> None:
     """A PNG of small plots, one curve each, against the same x (matplotlib Agg), three in a
     row, each in a cell of fixed margins (``MARGINS``). Call on one rank, or on every rank of
-    ``comm``: then each draws its share of the rows and rank 0 stacks them and writes the
-    picture, the same pixels in about 1 / size of the time.
+    ``comm``: then each draws only its share of the rows, and rank 0 stacks their pixels and
+    writes the picture; a failure on any rank, drawing or writing, is an ``OutputError`` on every
+    rank (none is left waiting for the others).
 
     Args:
         curves: {title: y values}.
@@ -165,32 +167,50 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
     """
     columns = min(3, len(curves))
     lines = -(-len(curves) // columns)
-    size, rank = (comm.size, comm.rank) if comm is not None else (1, 0)
-    first, last = lines * rank // size, lines * (rank + 1) // size  # this rank's rows
-    pixels = np.zeros((0, round(CELL[0] * columns * DPI), 3), dtype=np.uint8)
-    if last > first:
-        width, height = CELL[0] * columns, CELL[1] * (last - first)
-        figure = new_figure((width, height))
-        for k, (name, y) in enumerate(list(curves.items())[first * columns: last * columns]):
-            line, column = divmod(k, columns)
-            ax = figure.add_axes(((column * CELL[0] + MARGINS["left"]) / width,
-                                  ((last - first - 1 - line) * CELL[1] + MARGINS["bottom"]) / height,
-                                  (CELL[0] - MARGINS["left"] - MARGINS["right"]) / width,
-                                  (CELL[1] - MARGINS["top"] - MARGINS["bottom"]) / height))
-            ax.plot(x, y, "o-")
-            if bands and name in bands:
-                ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
-                ax.legend(fontsize=7)
-            ax.set_xlabel(xlabel)
-            _title(ax, name)
-            if xticklabels is not None:
-                ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
-        pixels = render(figure, DPI)
-    if comm is not None:
-        pixels = comm.gather(pixels, root=0)
-        pixels = np.concatenate(pixels) if rank == 0 else None
-    if rank == 0:
-        save_pixels_atomic(pixels, path)
+    if comm is None:
+        save_pixels_atomic(_rows(x, curves, xlabel, xticklabels, bands, band_label, columns, 0, lines), path)
+        return
+    first, last = lines * comm.rank // comm.size, lines * (comm.rank + 1) // comm.size  # this rank's rows
+    try:
+        drawn = None, _rows(x, curves, xlabel, xticklabels, bands, band_label, columns, first, last)
+    except Exception as error:  # sent to rank 0, which says it on every rank
+        drawn = f"could not draw {path} ({type(error).__name__}: {error})", None
+    drawn = comm.gather(drawn, root=0)
+    failure = None
+    if comm.rank == 0:
+        failure = next((message for message, _ in drawn if message), None)
+        try:
+            if failure is None:
+                save_pixels_atomic(np.concatenate([pixels for _, pixels in drawn]), path)
+        except OSError as error:
+            failure = f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
+    failure = comm.bcast(failure, root=0)
+    if failure:
+        raise OutputError(failure)
+
+
+def _rows(x, curves, xlabel, xticklabels, bands, band_label, columns, first, last) -> np.ndarray:
+    """The pixels of rows ``first`` to ``last`` (excluded) of ``plot_curves``' picture (none: an
+    empty array as wide as the picture)."""
+    if last == first:
+        return np.zeros((0, round(CELL[0] * columns * DPI), 3), dtype=np.uint8)
+    width, height = CELL[0] * columns, CELL[1] * (last - first)
+    figure = new_figure((width, height))
+    for k, (name, y) in enumerate(list(curves.items())[first * columns: last * columns]):
+        line, column = divmod(k, columns)
+        ax = figure.add_axes(((column * CELL[0] + MARGINS["left"]) / width,
+                              ((last - first - 1 - line) * CELL[1] + MARGINS["bottom"]) / height,
+                              (CELL[0] - MARGINS["left"] - MARGINS["right"]) / width,
+                              (CELL[1] - MARGINS["top"] - MARGINS["bottom"]) / height))
+        ax.plot(x, y, "o-")
+        if bands and name in bands:
+            ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
+            ax.legend(fontsize=7)
+        ax.set_xlabel(xlabel)
+        _title(ax, name)
+        if xticklabels is not None:
+            ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
+    return render(figure, DPI)
 
 
 def _title(ax, name: str) -> None:
