@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 import ufl
 from mpi4py import MPI
+from test_scenes import DEMOS
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import hertz_layer_force, uniaxial_nominal_stress
@@ -209,7 +210,7 @@ def test_the_closing_steps_gmres_takes_a_step_from_a_start_within_its_tolerance(
 def _low_tire(suture_increments):
     """The shipped segmental buckle on the eye of n_circ 24 with a tire 0.5 mm high: its "suture"
     step's converged increments and the buckle's height after it."""
-    scene = load_scene(os.path.join(os.path.dirname(__file__), "..", "demos", "segmental_buckle.toml"),
+    scene = load_scene(os.path.join(DEMOS, "segmental_buckle.toml"),
                        overrides={"mesh.n_circ": 24, "mesh.tire.height": 0.5})
     next(step for step in scene.steps if step.name == "suture").increments = suture_increments
     suture = next(step for step in scene.run()["steps"] if step["name"] == "suture")

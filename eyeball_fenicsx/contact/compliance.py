@@ -10,11 +10,11 @@ iteration only, so that a band pressed over its whole width lets go of its edges
 per Newton iteration (the seed's "tighten": 320, 160, then 80 pressing points). Instead,
 where a point would close or a point of A would open, the step is taken with the active set
 it predicts. With the shifted gap s = g + Gamma . du0 - lambda / alpha of each point after du0
-(Gamma: the gap's gradient), the points outside A with s < 0 (the closing set) take the penalty now, and the points of A
-with s > 0 (the opening set) lose it. The step solves K' du = -F, K' the tangent with the
-closing points' penalty W alpha Gamma Gamma^T added and the opening points' taken out (their
-forces too), by the Woodbury identity: du = du0 + du(e), with the pressures e at the
-changing set S from
+(Gamma: the gap's gradient), the points outside A with s < 0 (the closing set) take the
+penalty now, and the points of A with s > 0 (the opening set) lose it. The step solves
+K' du = -F, K' the tangent with the closing points' penalty W alpha Gamma Gamma^T added and
+the opening points' taken out (their forces too), by the Woodbury identity: du = du0 + du(e),
+with the pressures e at the changing set S from
 
     e / alpha + sigma C e = -sigma s    (per point of S; sigma = +1 closing, -1 opening),
 

@@ -52,8 +52,9 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..errors import OutputError, SceneError
+from ..errors import SceneError
 from ..system.stepping import ramp
+from .files import raise_on_every_rank
 from .fingerprint import first_difference
 
 if TYPE_CHECKING:
@@ -169,9 +170,7 @@ class Checkpoint:
                     self._write_state(state)
             except Exception as error:
                 failure = self._unwritten(error)
-        failure = self.comm.bcast(failure, root=0)
-        if failure:
-            raise OutputError(failure)
+        raise_on_every_rank(failure, self.comm)
 
     def _unwritten(self, error: Exception) -> str:
         return (f"could not write the checkpoint in {self.folder} ({type(error).__name__}: {error}); the "

@@ -71,6 +71,17 @@ class FieldOutput(Observer):
         self.comm.barrier()
 
 
+def _could_not_write(path: str, error: OSError) -> str:
+    return f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
+
+
+def raise_on_every_rank(failure: str | None, comm: MPI.Comm) -> None:
+    """Rank 0's ``failure`` (None: none) as an ``OutputError`` on every rank (collective)."""
+    failure = comm.bcast(failure, root=0)
+    if failure:
+        raise OutputError(failure)
+
+
 def make_folder(path: str, comm: MPI.Comm) -> None:
     """Make a folder on rank 0; an ``OutputError`` on every rank if it could not."""
     failure = None
@@ -78,10 +89,8 @@ def make_folder(path: str, comm: MPI.Comm) -> None:
         try:
             os.makedirs(path, exist_ok=True)
         except OSError as error:
-            failure = f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
-    failure = comm.bcast(failure, root=0)
-    if failure:
-        raise OutputError(failure)
+            failure = _could_not_write(path, error)
+    raise_on_every_rank(failure, comm)
 
 
 def write_text_atomic(path: str, text: str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
@@ -96,12 +105,10 @@ def write_text_atomic(path: str, text: str, comm: MPI.Comm = MPI.COMM_WORLD) -> 
                 f.write(text)
             os.replace(tmp, path)
         except OSError as error:
-            failure = f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
+            failure = _could_not_write(path, error)
             if os.path.exists(tmp):
                 os.remove(tmp)
-    failure = comm.bcast(failure, root=0)
-    if failure:
-        raise OutputError(failure)
+    raise_on_every_rank(failure, comm)
 
 
 def write_json_atomic(path: str, data: dict, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
@@ -183,10 +190,8 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
             if failure is None:
                 save_pixels_atomic(np.concatenate([pixels for _, pixels in drawn]), path)
         except OSError as error:
-            failure = f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
-    failure = comm.bcast(failure, root=0)
-    if failure:
-        raise OutputError(failure)
+            failure = _could_not_write(path, error)
+    raise_on_every_rank(failure, comm)
 
 
 def _rows(x, curves, xlabel, xticklabels, bands, band_label, columns, first, last) -> np.ndarray:
