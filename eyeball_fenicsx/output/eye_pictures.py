@@ -7,9 +7,10 @@ after the ``EyeMeasures`` (output/measures.py) whose results it draws: after eac
 ``section_<step>.png`` (the deformed meridional section coloured by the von Mises stress the
 measures just interpolated) and, with a detachment, ``retina_gap_<step>.png`` (the gap they just
 measured, flattened), and at the end of a run ``eye_measures.png`` (the scalar measures of that
-run's steps, from its summary). After a step the ranks draw at the same time: rank 0 the outer
-surface, the last rank the section and the gap map; at the end each rank draws its share of the
-measures' rows (output/files.py's ``plot_curves``). Each figure has fixed margins (no layout
+run's steps, from its summary). After a step the ranks draw at the same time: the last rank the
+gap map, rank 0 the outer surface and, on two ranks, the section (on three or more, rank 1
+draws it); at the end each rank draws its share of the measures' rows (output/files.py's
+``plot_curves``). Each figure has fixed margins (no layout
 pass) and is rendered once, on its own Agg canvas (output/files.py); the section's
 (``SectionPicture``), like the outer surface's (output/eye_surface.py), is built for the first
 step and drawn again after the others.
@@ -212,17 +213,18 @@ class EyePictures(Observer):
     def after_step(self, step: str, index: int, entry: dict, converged: bool) -> None:
         """Collective: the outer surface and the section coloured by the stress, and the retina's
         gap map, of a converged step, as the measures just measured them. Each is gathered
-        first, then drawn at once: the surface on rank 0, the other two on the last rank (one
-        rank draws all three); every file is written when this returns, on every rank."""
+        first, then drawn at once: the surface on rank 0, the gap map (the slowest) on the last
+        rank, the section on rank 1 if there are three ranks or more, else on rank 0 (one rank
+        draws all three); every file is written when this returns, on every rank."""
         if not self.out_dir or not converged:
             return
         files = {kind: os.path.join(self.out_dir, name) for kind, name in step_pictures(step).items()}
         title = f"{self.scene}, step {step}: von Mises stress (MPa)"
-        last = self.solid.comm.size - 1
+        size = self.solid.comm.size
         surface = self._surface.faces(self.measures.mises)
         section, _, mises = meridional_section(self.solid.mesh_data, solid=self.solid, field=self.measures.mises,
-                                               root=last)
-        X, gap = self.measures.retina_gap_map(root=last)
+                                               root=1 if size > 2 else 0)
+        X, gap = self.measures.retina_gap_map(root=size - 1)
         self._surface.draw(surface, files["surface"], title)
         if section is not None and len(section):
             self._section.draw(section, mises, files["section"], title)
