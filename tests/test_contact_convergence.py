@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 import ufl
 from mpi4py import MPI
+from test_contact import blocks_mesh
 from test_scenes import DEMOS
 
 import eyeball_fenicsx as ef
@@ -465,3 +466,47 @@ def test_ring_newton_converges_quadratically(ring):
         pairs = [(r[k], r[k + 1]) for k in range(len(r) - 1) if r[k + 1] > 1e-10]
         for before, after in pairs[1:]:
             assert after < 10 * before**2
+
+
+
+def test_a_settled_update_that_would_press_a_point_is_not_taken():
+    """The last, settled multiplier update is free only while it presses and releases no point:
+    Newton solves once more anyway, and from the last factorization if the points that press stay
+    those of its tangent (augmented.py). A rigid sphere pressed into a block (one increment), then
+    two settled updates of the slave node whose multiplier is nearest to pressing an open point:
+    lifted 0.9 of the way, the update is taken; 1.1 of the way, it is not."""
+    axis = np.linspace(0.0, 1.0, 6)
+    pair = RigidContact("sphere", "solid_z1", "sphere", center=[0.0, 0.0, 2.5], radius=2.0,
+                        displacement=[0.0, 0.0, -0.03])
+    mesh = blocks_mesh(("solid", axis, axis, np.linspace(0.0, 0.5, 3)))
+    scene = ef.Scene("indent", mesh, {"solid": ef.NeoHooke(0.5)},
+                     features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
+                               ef.Dirichlet("solid_z0", {"z": 0.0}), pair],
+                     solver=ef.SolverSettings(increments=1))
+    assert scene.run()["ok"]
+    comm = MPI.COMM_WORLD
+    sel, on, _, _ = pair._pressures()
+    # each (open point, node of its facet): the rise of the node's multiplier that presses the point
+    point, corner = np.nonzero(pair.point_N[sel.point[~on]] > 0)
+    index = sel.point[~on][point]
+    short = sel.g[~on][point] - pair._point_multipliers()[index] / pair.alpha[index]
+    rise = short * pair.alpha[index] / pair.point_N[index, corner]
+    node = pair.solid.W.dofmap.index_map.local_to_global(pair.point_nodes[index, corner])
+    rises, nodes = (np.concatenate(parts) for parts in zip(*comm.allgather((rise, node))))
+    target = nodes[np.argmin(rises)]
+    smallest = rises[nodes == target].min()
+    assert smallest > 0.0
+    local = pair.point_nodes[index][node == target]
+
+    for fraction, taken in ((0.9, True), (1.1, False)):
+        update = np.zeros_like(pair.node_multiplier)
+        update[local] = fraction * smallest
+        before = pair.node_multiplier.copy()
+        pair._uzawa_update = lambda point, area, gap, update=update: update
+        pair._settled_change = np.full_like(pair._settled_change, np.inf)  # every update is settled
+        pair.set_increment(True)
+        assert pair.augment(solving=True)  # settled: nothing left to do
+        assert comm.allreduce(bool(np.any(pair.node_multiplier != before)), op=MPI.LOR) == taken, fraction
+        _, pressing, _, _ = pair._pressures()
+        assert comm.allreduce(int(np.sum(pressing != on)), op=MPI.SUM) == 0
+        pair.node_multiplier = before

@@ -102,10 +102,11 @@ class ContactFeature(AugmentedLagrangian, Feature):
             self._selection = (positions, self._select(positions))
         return self._selection[1]
 
-    def _pressures(self):
-        """The selection, which of its points carry force, and their pressure and stiffness."""
+    def _pressures(self, node_multiplier=None):
+        """The selection, which of its points carry force, and their pressure and stiffness (with
+        the multipliers in force, or with the nodal ones ``node_multiplier``)."""
         sel = self._selection_now()
-        multiplier = self._point_multipliers()[sel.point]
+        multiplier = self._point_multipliers(node_multiplier)[sel.point]
         p, k = pressure(sel.g, multiplier, self.alpha[sel.point], self.smoothing, self.adjusted[sel.point])
         if self.smoothing > 0.0:
             on = sel.g - multiplier / self.alpha[sel.point] < self.reach
