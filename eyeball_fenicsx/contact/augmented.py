@@ -135,9 +135,9 @@ class AugmentedLagrangian:
         unsettled = self.solid.comm.allreduce(
             (np.abs(update[: self._num_owned]) / self._settled_change[: self._num_owned]).max(initial=0.0), op=MPI.MAX)
         settled = unsettled <= 1.0 or self._passes >= MAX_AUGMENTATIONS
-        # a free last update: Newton solves again anyway, and its tangent stays (module docstring)
-        free = settled and solving and self._passes < MAX_AUGMENTATIONS and self._keeps_contacts(on, update)
-        self._before = (self.node_multiplier, self._growth) if free or not settled else None  # abandon's
+        last = settled and solving and self._passes < MAX_AUGMENTATIONS  # Newton solves once more anyway
+        free = last and self._keeps_contacts(on, update)  # a free last update: its tangent stays (module docstring)
+        self._before = (self.node_multiplier, self._growth) if last or not settled else None  # abandon's
         if settled:
             self._last_update = None
             if free:
