@@ -469,12 +469,13 @@ def test_ring_newton_converges_quadratically(ring):
 
 
 
-def test_a_settled_update_that_would_press_a_point_is_not_taken():
+def test_a_settled_update_that_would_press_or_release_a_point_is_not_taken():
     """The last, settled multiplier update is free only while it presses and releases no point:
     Newton solves once more anyway, and from the last factorization if the points that press stay
     those of its tangent (augmented.py). A rigid sphere pressed into a block (one increment), then
-    two settled updates of the slave node whose multiplier is nearest to pressing an open point:
-    lifted 0.9 of the way, the update is taken; 1.1 of the way, it is not."""
+    settled updates of one slave node's multiplier: of the node that presses an open point soonest,
+    raised 0.9 of the way (taken) and 1.1 of the way (not taken); of the node that releases a
+    pressing point soonest, lowered alike. Either way the state before it can be taken back."""
     axis = np.linspace(0.0, 1.0, 6)
     pair = RigidContact("sphere", "solid_z1", "sphere", center=[0.0, 0.0, 2.5], radius=2.0,
                         displacement=[0.0, 0.0, -0.03])
@@ -487,28 +488,32 @@ def test_a_settled_update_that_would_press_a_point_is_not_taken():
     comm = MPI.COMM_WORLD
     pair.set_increment(True)  # the elements' penalty, as the updates below have it
     sel, on, _, _ = pair._pressures()
-    # each (open point, node of its facet): the rise of the node's multiplier that presses the point
-    point, corner = np.nonzero(pair.point_N[sel.point[~on]] > 0)
-    index = sel.point[~on][point]
-    short = sel.g[~on][point] - pair._point_multipliers()[index] / pair.alpha[index]
-    rise = short * pair.alpha[index] / pair.point_N[index, corner]
-    node = pair.tables.global_index[pair.point_nodes[index, corner]]
-    rises, nodes = (np.concatenate(parts) for parts in zip(*comm.allgather((rise, node))))
-    target = nodes[np.argmin(rises)]
-    smallest = rises[nodes == target].min()
-    assert smallest > 0.0
-    local = pair.point_nodes[index][node == target]
+    margin = sel.g - pair._point_multipliers()[sel.point] / pair.alpha[sel.point]  # > 0: open
 
-    for fraction, taken in ((0.9, True), (1.1, False)):
-        update = np.zeros_like(pair.node_multiplier)
-        update[local] = fraction * smallest
-        before = pair.node_multiplier.copy()
-        pair._uzawa_update = lambda point, area, gap, update=update: update
-        pair._settled_change = np.full_like(pair._settled_change, np.inf)  # every update is settled
-        pair.set_increment(True)
-        assert pair.augment(solving=True)  # settled: nothing left to do
-        assert comm.allreduce(bool(np.any(pair.node_multiplier != before)), op=MPI.LOR) == taken, fraction
-        _, pressing, _, _ = pair._pressures()
-        assert comm.allreduce(int(np.sum(pressing != on)), op=MPI.SUM) == 0
-        assert pair.abandon_augmentation()  # a failed solve after it still goes back to the state before
-        assert np.array_equal(pair.node_multiplier, before)
+    def soonest(points, margin):
+        """The node (its local indices) whose multiplier, changed by the returned amount, first
+        changes the contact of one of ``points``, ``margin`` (mm) from it (over all ranks)."""
+        point, corner = np.nonzero(pair.point_N[points] > 0)
+        index, nodes = points[point], pair.point_nodes[points[point], corner]
+        change = margin[point] * pair.alpha[index] / pair.point_N[index, corner]
+        keys = pair.tables.global_index[nodes]
+        changes, every = (np.concatenate(parts) for parts in zip(*comm.allgather((change, keys))))
+        target = every[np.argmin(changes)]
+        return nodes[keys == target], changes[every == target].min()
+
+    for (local, amount), sign in ((soonest(sel.point[~on], margin[~on]), 1.0),
+                                  (soonest(sel.point[on], -margin[on]), -1.0)):
+        assert amount > 0.0
+        for fraction, taken in ((0.9, True), (1.1, False)):
+            update = np.zeros_like(pair.node_multiplier)
+            update[local] = sign * fraction * amount
+            before = pair.node_multiplier.copy()
+            pair._uzawa_update = lambda point, area, gap, update=update: update
+            pair._settled_change = np.full_like(pair._settled_change, np.inf)  # every update is settled
+            pair.set_increment(True)
+            assert pair.augment(solving=True)  # settled: nothing left to do
+            assert comm.allreduce(bool(np.any(pair.node_multiplier != before)), op=MPI.LOR) == taken, (sign, fraction)
+            _, pressing, _, _ = pair._pressures()
+            assert comm.allreduce(int(np.sum(pressing != on)), op=MPI.SUM) == 0
+            assert pair.abandon_augmentation()  # a failed solve after it still goes back to the state before
+            assert np.array_equal(pair.node_multiplier, before)
