@@ -22,11 +22,10 @@ turned into a cut-back of the increment; so is the last, settled update, taken b
 solves once more anyway (at the usual tolerances, or for another feature's pass), unless it
 would press or release a point: that solve could then not start from the last factorization,
 which knows the points that press now, and would pay new tangents for an update that moves no
-node by more than the settled depth (the seed's "pressurize": such an update released 8 of the
-88 pressing points, standing 2.6e-4 mm off the sclera under a multiplier that reached 3e-4 mm,
-and cost 2 factorizations). A penalty
-that grows outdates the tangent (no chord step with the old one). Increments inside a step take
-one update each, without solving again (it starts the next increment closer).
+node by more than the settled depth (points standing just off the master, pressing only through
+their neighbours' multipliers, flip so; benchmarks/README.md). A penalty that grows outdates the
+tangent (no chord step with the old one). Increments inside a step take one update each, without
+solving again (it starts the next increment closer).
 
 ``AugmentedLagrangian`` is a mixin of ``ContactFeature`` (base.py), which gives it ``active``,
 ``solid``, the points (``weight``, ``alpha``, ``thickness``, ``point_nodes``, ``point_N``), their

@@ -35,10 +35,9 @@ positive-real systems). This is the semismooth Newton step of the penalty law
 with S chosen again (points of S with e <= 0 leave it, newly changing ones join; a point left
 with e < 0 when the rounds run out pulls (closing) or is let through (opening) in this step
 only, which the next Newton step corrects) at most CLOSING_ROUNDS times. Where many points
-change, the set takes several rounds to settle (the seed's "tighten": 83, 126, 141, then 143
-points). A round costs a few triangular solves; a set left unsettled costs Newton iterations,
-a factorization each, and can cycle across them (a tire 0.5 mm high, pulled in by sutures,
-was cut back twice with 3 rounds and converges whole with 8: benchmarks/README.md). A contact
+change, the set takes several rounds to settle. A round costs a few triangular solves; a set
+left unsettled costs Newton iterations, a factorization each, and can cycle across them
+(benchmarks/README.md measures both). A contact
 pair's tangent is not quite symmetric (its curvature terms), and GMRES then gives the
 approximate solve the step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each
 product costs about a twentieth of a factorization, and the first few do most of the work),
