@@ -19,7 +19,8 @@ from eyeball_fenicsx.mechanics.materials import NeoHooke
 from eyeball_fenicsx.mechanics.solid import MixedSolid
 from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.load import built_mesh
-from eyeball_fenicsx.output.eye_pictures import eye_measures_png
+from eyeball_fenicsx.output import eye_pictures
+from eyeball_fenicsx.output.eye_pictures import EyePictures, eye_measures_png
 from eyeball_fenicsx.output.files import plot_curves
 from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
 from eyeball_fenicsx.scene.loader import load_scene
@@ -229,6 +230,23 @@ def test_a_failure_of_a_picture_the_ranks_draw_together_is_an_error_on_every_ran
     folder = COMM.bcast(str(tmp_path_factory.mktemp("pictures")) if COMM.rank == 0 else None, root=0)
     with pytest.raises(OutputError, match="could not draw"):
         plot_curves(os.path.join(folder, "eye_measures.png"), [1, 2], curves, "step", comm=COMM)
+
+
+def test_a_picture_one_rank_cannot_draw_after_a_step_is_an_error_on_every_rank(buckled, tmp_path_factory,
+                                                                               monkeypatch):
+    """After a step each rank draws a picture of its own (``EyePictures.after_step``): one that
+    fails on the last rank alone (the retina's gap map, drawn there) is an OutputError on every
+    rank that names it, not the other ranks left waiting for that one."""
+    scene, _, _ = buckled
+    pictures = next(o for o in scene.observers if isinstance(o, EyePictures))
+    folder = COMM.bcast(str(tmp_path_factory.mktemp("failed_pictures")) if COMM.rank == 0 else None, root=0)
+    pictures.start(scene.name, folder)
+
+    def unable(*args, **kwargs):
+        raise ValueError("no colour for the gap")
+    monkeypatch.setattr(eye_pictures, "retina_gap_png", unable)
+    with pytest.raises(OutputError, match="could not draw the pictures of step inflate .ValueError: no colour"):
+        pictures.after_step("inflate", 1, {}, True)
 
 
 @pytest.mark.parametrize("keys, fragment", [

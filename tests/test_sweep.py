@@ -9,7 +9,8 @@ import tomllib
 import pytest
 from mpi4py import MPI
 
-from eyeball_fenicsx.errors import Interrupted, SceneError
+from eyeball_fenicsx.errors import Interrupted, OutputError, SceneError
+from eyeball_fenicsx.scene import sweep
 from eyeball_fenicsx.scene.loader import load_scene
 from eyeball_fenicsx.scene.scene import Scene
 from eyeball_fenicsx.scene.sweep import run_sweep
@@ -158,6 +159,18 @@ def test_an_integer_entry_takes_whole_numbers(scene_path, shared_tmp):
     rows = run_sweep(scene_path, {"mesh.divisions.0": [2.0, 3.0]}, out)
     assert [row["ok"] for row in rows] == [True, True]
     assert [read_summary(os.path.join(out, k))["cells"] for k in ("00", "01")] == [2, 3]
+
+
+def test_a_sweep_picture_rank_0_cannot_draw_is_an_error_on_every_rank(scene_path, shared_tmp, monkeypatch):
+    """Rank 0 draws sweep.png alone: its failure is an OutputError on every rank that names it,
+    not the other ranks left waiting for rank 0, and the table it was drawn from is kept."""
+    def unable(*args, **kwargs):
+        raise ValueError("no room for the legend")
+    monkeypatch.setattr(sweep, "plot_sweep", unable)
+    out = os.path.join(shared_tmp, "sweep")
+    with pytest.raises(OutputError, match="could not draw the sweep's pictures .*ValueError: no room for the legend"):
+        run_sweep(scene_path, {PARAMETER: VALUES[:2]}, out)
+    assert os.path.exists(os.path.join(out, "sweep.csv"))
 
 
 # The grid and the bands. The unit cube on rollers pulled along x to the stretch l = 1 + x and then

@@ -25,7 +25,7 @@ import numpy as np
 from dolfinx import fem
 
 from .eye_surface import OuterSurface, gather_faces, quad_nodes
-from .files import flatten, new_figure, plot_curves, save_figure_atomic
+from .files import flatten, new_figure, plot_curves, raise_any_rank_failure, save_figure_atomic
 from .labels import label
 from .measures import DETACHED_GAP, EyeMeasures, polar_angle
 from .observer import Observer
@@ -215,7 +215,8 @@ class EyePictures(Observer):
         gap map, of a converged step, as the measures just measured them. Each is gathered
         first, then drawn at once: the surface on rank 0, the gap map (the slowest) on the last
         rank, the section on rank 1 if there are three ranks or more, else on rank 0 (one rank
-        draws all three); every file is written when this returns, on every rank."""
+        draws all three); every file is written when this returns, on every rank, and a failure
+        on any rank is an ``OutputError`` on every rank."""
         if not self.out_dir or not converged:
             return
         files = {kind: os.path.join(self.out_dir, name) for kind, name in step_pictures(step).items()}
@@ -225,13 +226,18 @@ class EyePictures(Observer):
         section, _, mises = meridional_section(self.solid.mesh_data, solid=self.solid, field=self.measures.mises,
                                                root=1 if size > 2 else 0)
         X, gap = self.measures.retina_gap_map(root=size - 1)
-        self._surface.draw(surface, files["surface"], title)
-        if section is not None and len(section):
-            self._section.draw(section, mises, files["section"], title)
-        if X is not None:
-            retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
-                           files["retina_gap"], DETACHED_GAP, title=f"{self.scene}, step {step}: the detached retina")
-        self.solid.comm.Barrier()  # the run's page (output/report.py, rank 0) shows them next
+        failure = None
+        try:
+            self._surface.draw(surface, files["surface"], title)
+            if section is not None and len(section):
+                self._section.draw(section, mises, files["section"], title)
+            if X is not None:
+                retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
+                               files["retina_gap"], DETACHED_GAP,
+                               title=f"{self.scene}, step {step}: the detached retina")
+        except Exception as error:  # said on every rank, none left waiting for the others
+            failure = f"could not draw the pictures of step {step} ({type(error).__name__}: {error})"
+        raise_any_rank_failure(failure, self.solid.comm)  # the run's page (output/report.py, rank 0) shows them next
 
     def finish(self, summary: dict) -> None:
         """Collective: the eye measures' picture, drawn by every rank (``eye_measures_png``)."""

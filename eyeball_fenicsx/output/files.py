@@ -82,6 +82,13 @@ def raise_on_every_rank(failure: str | None, comm: MPI.Comm) -> None:
         raise OutputError(failure)
 
 
+def raise_any_rank_failure(failure: str | None, comm: MPI.Comm) -> None:
+    """The first rank's ``failure`` of those that had one (None: none) as an ``OutputError`` on
+    every rank (collective: it returns, or raises, on every rank once all have called it)."""
+    failures = comm.gather(failure, root=0)
+    raise_on_every_rank(next((f for f in failures if f), None) if comm.rank == 0 else None, comm)
+
+
 def make_folder(path: str, comm: MPI.Comm) -> None:
     """Make a folder on rank 0; an ``OutputError`` on every rank if it could not."""
     failure = None

@@ -32,7 +32,7 @@ from typing import Any
 from mpi4py import MPI
 
 from ..errors import ConvergenceError, SceneError
-from ..output.files import flatten, write_json_atomic, write_text_atomic
+from ..output.files import flatten, raise_on_every_rank, write_json_atomic, write_text_atomic
 from ..output.sweep_plots import numeric_columns, plot_sweep
 from .loader import load_scene
 from .sweep_plan import Plan, Variant, plan_sweep
@@ -51,6 +51,7 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
     Raises:
         SceneError: before any variant runs, if an input is invalid (sweep_plan.plan_sweep), a
             variant's scene is invalid or, with ``resume``, DIR holds another sweep.
+        OutputError: on every rank, if a file could not be written or the pictures drawn.
     """
     plan = plan_sweep(scene_path, grid, ranges)
     variants = plan.variants()
@@ -76,9 +77,13 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
     bands = _bands(plan, variants, rows) if plan.ranges else None
     if bands is not None:
         write_text_atomic(os.path.join(out_dir, "bands.csv"), _csv(bands), comm)
+    failure = None
     if comm.rank == 0:
-        plot_sweep(out_dir, table, plan.grid, bands, plan.ranges)
-    comm.barrier()
+        try:
+            plot_sweep(out_dir, table, plan.grid, bands, plan.ranges)
+        except Exception as error:  # said on every rank, none left waiting for rank 0
+            failure = f"could not draw the sweep's pictures in {out_dir} ({type(error).__name__}: {error})"
+    raise_on_every_rank(failure, comm)
     return table
 
 
