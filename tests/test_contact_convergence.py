@@ -29,7 +29,7 @@ from test_scenes import DEMOS
 
 import eyeball_fenicsx as ef
 from eyeball_fenicsx.analytic import hertz_layer_force, uniaxial_nominal_stress
-from eyeball_fenicsx.contact import ContactPair, RigidContact
+from eyeball_fenicsx.contact import ContactPair, RigidContact, compliance
 from eyeball_fenicsx.contact.policy import PENALTY_FACTOR
 from eyeball_fenicsx.features.band import BandTightening
 from eyeball_fenicsx.meshing.builders.hexes import add_hex_model, boundary_quads, hex_grid
@@ -517,3 +517,53 @@ def test_a_settled_update_that_would_press_or_release_a_point_is_not_taken():
             assert comm.allreduce(int(np.sum(pressing != on)), op=MPI.SUM) == 0
             assert pair.abandon_augmentation()  # a failed solve after it still goes back to the state before
             assert np.array_equal(pair.node_multiplier, before)
+
+
+@pytest.mark.parametrize("change", ["press", "release"])
+def test_a_chord_step_for_changed_contacts_is_the_newton_step_of_a_new_tangent(change, monkeypatch):
+    """A factorized tangent whose pressing points are no longer the state's (a multiplier update
+    moved them) still gives the Newton step: the closing step (compliance.py) adds the points that
+    press now and not in the tangent and takes out the others, by the Woodbury identity. A block
+    under a tilted rigid plane, pressed on part of its top (one increment), then every node's
+    multiplier raised by c (open nodes near the edge press) or lowered by c (pressing nodes near it
+    open): from the same state, the step from the tangent before the change, corrected, is the
+    step from a new tangent, corrected too (both to the Newton step with the points they predict;
+    GMRES solved to round-off here; a plane has no curvature, so the two tangents differ in those
+    points' penalties only)."""
+    monkeypatch.setattr(compliance, "COMPLIANCE_RTOL", 1e-13)
+    axis = np.linspace(0.0, 1.0, 6)
+    plane = RigidContact("plane", "solid_z1", "plane", point=[0.0, 0.0, 0.5], normal=[0.1, 0.0, -1.0],
+                         displacement=[0.0, 0.0, -0.03])
+    mesh = blocks_mesh(("solid", axis, axis, np.linspace(0.0, 0.5, 3)))
+    scene = ef.Scene("tilted plane", mesh, {"solid": ef.NeoHooke(0.5)},
+                     features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
+                               ef.Dirichlet("solid_z0", {"z": 0.0}), plane],
+                     solver=ef.SolverSettings(increments=1))
+    assert scene.run()["ok"]
+    problem, newton, comm = scene.problem, scene.newton, MPI.COMM_WORLD
+    ksp, A, x, b = newton.snes.getKSP(), problem.A, problem.x, problem.b
+    ksp.setOperators(A)
+    problem.state_to_vector(x)
+
+    def corrected_step():
+        y = b.duplicate()
+        ksp.solve(b, y)
+        problem.close_gaps(y, newton.respond)
+        return y
+
+    problem.F(None, x, b)
+    problem.J(None, x, A, A)  # the tangent, with the points that press at the converged state
+    sel, pressed, p, _ = plane._pressures()
+    open_margin = plane.alpha[sel.point] * sel.g - plane._point_multipliers()[sel.point]  # alpha s0 > 0
+    margin = open_margin[~pressed] if change == "press" else p[pressed]  # what moves the nearest ones across
+    c = 1.5 * comm.allreduce(float(margin.min(initial=np.inf)), op=MPI.MIN)
+    plane.node_multiplier = np.maximum(plane.node_multiplier + (c if change == "press" else -c), 0.0)
+    plane._selection = None
+    problem.F(None, x, b)
+    _, pressing, _, _ = plane._pressures()
+    assert comm.allreduce(int(np.sum(pressing != pressed)), op=MPI.SUM) > 0  # the points that press changed
+    chord = corrected_step()
+    problem.J(None, x, A, A)  # a new tangent, with the points that press now
+    newton_step = corrected_step()
+    assert (chord - newton_step).norm() <= 1e-9 * newton_step.norm()
+

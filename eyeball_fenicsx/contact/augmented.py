@@ -20,10 +20,10 @@ PENALTY_GROWTH for the rest of the increment, up to MAX_PENALTY_GROWTH; a pass w
 fails is abandoned (the converged state before it stands, as at the cap of passes), never
 turned into a cut-back of the increment; so is the last, settled update, taken because Newton
 solves once more anyway (at the usual tolerances, or for another feature's pass), unless it
-would press or release a point: that solve could then not start from the last factorization,
-which knows the points that press now, and would pay new tangents for an update that moves no
-node by more than the settled depth (points standing just off the master, pressing only through
-their neighbours' multipliers, flip so; benchmarks/README.md). A penalty that grows outdates the
+would press or release a point: an update that moves no node by more than the settled depth is
+not worth the contacts it would change (points standing just off the master, pressing only
+through their neighbours' multipliers, flip so; benchmarks/README.md), which that solve's chord
+steps from the last factorization would have to correct (compliance.py). A penalty that grows outdates the
 tangent (no chord step with the old one). Increments inside a step take one update each, without
 solving again (it starts the next increment closer).
 

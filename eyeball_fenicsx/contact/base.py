@@ -134,15 +134,26 @@ class ContactFeature(AugmentedLagrangian, Feature):
         """The entries beyond the mesh's pattern that contact may touch (none by default)."""
         return None
 
-    def tangent_outdated(self) -> bool:
+    def tangent_outdated(self, corrected: bool = False) -> bool:
         """True (on every rank: collective) if the contacts changed since the last tangent was
-        assembled: a factorization of that tangent then is no Newton step."""
+        assembled in a way the closing step cannot correct: a factorization of that tangent then
+        is no Newton step. Points that press now and did not then, or the other way round, it
+        corrects (compliance.py), unless the law is smoothed; a point that pressed then and now
+        on another segment, or a new penalty, it does not."""
         if not self.active:
             return False
-        seen = self._contacts
-        same = seen["jacobian"] is not None and seen["residual"] is not None \
-            and np.array_equal(seen["jacobian"], seen["residual"])
-        return self.solid.comm.allreduce(not same, op=MPI.LOR)
+        tangent, residual = self._contacts["jacobian"], self._contacts["residual"]
+        fits = tangent is not None and residual is not None
+        if fits and not np.array_equal(tangent, residual):
+            fits = corrected
+            _, i, j = np.intersect1d(tangent[:, 0], residual[:, 0], assume_unique=True, return_indices=True)
+            fits = fits and self.smoothing == 0.0 and np.array_equal(tangent[i, 1], residual[j, 1])
+        return self.solid.comm.allreduce(not fits, op=MPI.LOR)
+
+    def in_tangent(self, point: np.ndarray) -> np.ndarray:
+        """Which of the points press in the last tangent assembled."""
+        tangent = self._contacts["jacobian"]
+        return np.isin(point, tangent[:, 0]) if tangent is not None else np.zeros(len(point), dtype=bool)
 
     def add_to_residual(self, b: PETSc.Vec) -> None:
         if not self.active:

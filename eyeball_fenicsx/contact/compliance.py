@@ -37,8 +37,22 @@ with e < 0 when the rounds run out pulls (closing) or is let through (opening) i
 only, which the next Newton step corrects) at most CLOSING_ROUNDS times. Where many points
 change, the set takes several rounds to settle. A round costs a few triangular solves; a set
 left unsettled costs Newton iterations, a factorization each, and can cycle across them
-(benchmarks/README.md measures both). A contact
-pair's tangent is not quite symmetric (its curvature terms), and GMRES then gives the
+(benchmarks/README.md measures both).
+
+A chord step's tangent (newton.py) was assembled with the points that pressed then (T), and
+the state's pressing points (P, whose forces the residual holds) may have changed since (an
+augmentation moved the multipliers). The same identity gives the step with the predicted set
+Q from any T and P: the pressure e a point takes is the predicted law's, -q alpha (s0 + Gamma .
+du), less the linear model's, r p0 - t alpha Gamma . du (s0 = g - lambda / alpha the shifted gap
+now, p0 = -alpha s0 its pressure; q, r, t whether the point is in Q, P, T), so
+
+    e / alpha + sigma C e = (r - q) s0 - sigma Gamma . du0,    sigma = q - t,
+
+the system above where P = T (s = s0 + Gamma . du0); a point of T and Q but not of P takes its
+force, -alpha s0, as a fixed pressure, and one of P alone loses it. Points whose r and t
+differ leave and join S by the gap the round leaves them.
+
+A contact pair's tangent is not quite symmetric (its curvature terms), and GMRES then gives the
 approximate solve the step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each
 product costs about a twentieth of a factorization, and the first few do most of the work),
 which the onset limit checks afterwards, as it checks any step. Each contact feature takes its
@@ -118,19 +132,24 @@ def pressure_response(feature, sel, index: np.ndarray, pressure: np.ndarray, res
 
 def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None:
     """The change of Newton's step du (local entries) that presses the points it closes and
-    releases those it opens (module docstring), or None if it changes no point's contact
-    (collective)."""
+    releases those it opens, and gives the tangent's set of points the state's (module
+    docstring), or None if it changes no point's contact (collective)."""
     comm = feature.solid.comm
     sel, on, _, _ = feature._pressures()
     alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
-    predicted = sel.g + gap_rate(feature, du) - feature._point_multipliers()[sel.point] / alpha
-    changing = np.where(on, predicted > 0.0, predicted < 0.0)
-    if not comm.allreduce(bool(np.any(changing)), op=MPI.LOR):
+    tangent = feature.in_tangent(sel.point)
+    shifted = sel.g - feature._point_multipliers()[sel.point] / alpha
+    predicted = shifted + gap_rate(feature, du)
+    press = np.where(tangent, predicted <= 0.0, predicted < 0.0)
+    if not comm.allreduce(bool(np.any((press != tangent) | (press != on))), op=MPI.LOR):
         return None
-    sign = np.where(on, -1.0, 1.0)  # closing: the pressure e; opening: e cancels the tangent's pressure
+    settled = on == tangent  # the state's pressing points are the tangent's
+    held = (on.astype(float) - tangent) * shifted  # (r - t) s0: a force the residual holds and the tangent not
     e = np.zeros(len(sel.point))
     for _ in range(CLOSING_ROUNDS):
+        changing = (press != tangent) | (press != on)
         index = np.flatnonzero(changing)
+        sign = press.astype(float) - tangent  # +1 closing, -1 opening, 0 the tangent's as it is
 
         def apply(x):
             out, change = np.zeros_like(x), pressure_response(feature, sel, index, x[index], respond)
@@ -140,13 +159,14 @@ def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None
         def dot(a, b):
             return comm.allreduce(float(np.sum(weight[index] / alpha[index] * a[index] * b[index])), op=MPI.SUM)
         rhs = np.zeros_like(e)
-        rhs[index] = -sign[index] * alpha[index] * predicted[index]
+        rhs[index] = alpha[index] * (held[index] - sign[index] * predicted[index])
         e, change = gmres(apply, rhs, dot, np.where(changing, e, 0.0))
         if change is None:  # no step taken: no pressure
             change = np.zeros_like(du)
         after = predicted + gap_rate(feature, change)
-        chosen = np.where(changing, e > 0.0, np.where(on, after > 0.0, after < 0.0))
-        if not comm.allreduce(bool(np.any(chosen != changing)), op=MPI.LOR):
+        chosen = np.where(settled & changing, np.where(e > 0.0, press, tangent),
+                          np.where(tangent, after <= 0.0, after < 0.0))
+        if not comm.allreduce(bool(np.any(chosen != press)), op=MPI.LOR):
             break
-        changing = chosen
+        press = chosen
     return change

@@ -93,9 +93,10 @@ class ActiveSet(Protocol):
         """Before each load increment (after the loads are set): search; True if ``coupling()``
         changed, so that the matrix is preallocated anew."""
 
-    def tangent_outdated(self) -> bool:
+    def tangent_outdated(self, corrected: bool = False) -> bool:
         """Collective: the last tangent no longer fits the state (the active set changed), so
-        Newton must not reuse its factorization."""
+        Newton must not reuse its factorization; ``corrected``: unless the closing step
+        (``closing_step``) corrects the difference."""
 
     def step_fraction(self, du: np.ndarray, residual: np.ndarray) -> float:
         """Collective: the largest fraction (at most 1) of the state change ``du`` that Newton may

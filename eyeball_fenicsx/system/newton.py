@@ -18,6 +18,11 @@ keeps a tangent's preconditioner for chord steps the same way:
 * factorization reuse (chord steps): after a Newton step that cut the residual by at least
   ``settings.SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
   assembling and factorizing a new tangent; a reused step that contracts less ends the reuse.
+  A tangent whose contact points changed since it was assembled is reused only by a solve that
+  started from it (``chord_start``: an augmentation's, or the one at the usual tolerances that
+  ends them, near the converged state, where a multiplier update moves a few points), and then
+  with the closing step (``ActiveSet.closing_step``), which gives its steps the state's pressing
+  points; other solves (an increment's first, one after a new search) assemble a new one.
   A chord step converges linearly, so it would stop just below the tolerance, where Newton's
   quadratic last step lands far below it: after a reused factorization, convergence needs a
   residual ``POLISH`` times below the tolerance (or a chord step that no longer contracts, at
@@ -177,10 +182,11 @@ class NewtonSolver:
         """Assemble a new tangent, or leave A untouched so that the KSP keeps its factorization
         (PCSetUp factorizes only a matrix whose state changed)."""
         norms = self.residual_norms
-        # a tangent whose active set (contact) changed is never reused
         first = snes.getIterationNumber() == 0
         contracted = self.chord_start if first else norms[-1] <= self.reuse_contraction * norms[-2]
-        self.reused = contracted and not self.problem.tangent_outdated()
+        # a tangent whose contact points changed since: reused only by a solve that started from it
+        # (near a converged state), with the closing step, which gives it the state's points
+        self.reused = contracted and not self.problem.tangent_outdated(self.chord_start and self._holds_factorization())
         if self.reused:
             return
         self.problem.J(snes, x, A, P)
@@ -198,9 +204,8 @@ class NewtonSolver:
         fraction, closed, residual = 1.0, False, self.snes.getFunction()[0].array_r
         if self.problem.limits_steps:
             self.problem.vector_to_state(x)
-            ksp = self.snes.getKSP()
-            if ksp.getType() == "preonly" and ksp.getPC().getType() in ("lu", "cholesky"):  # it holds the
-                closed = self.problem.close_gaps(y, self.respond)  # factorization of the step's tangent
+            if self._holds_factorization():  # of the step's tangent
+                closed = self.problem.close_gaps(y, self.respond)
         if self.first_step is None:  # the Newton step as solved and closing gaps, before any limit
             self.first_step = self._step_length(y)
         if self.problem.limits_steps:
@@ -217,6 +222,11 @@ class NewtonSolver:
             y.zeroEntries()  # the line search fails (bt), or Newton stays at x and stops (basic)
             return True
         return closed or fraction < 1.0 or halvings != 0
+
+    def _holds_factorization(self) -> bool:
+        """Whether the linear solver solves with a factorization (``respond`` needs one)."""
+        ksp = self.snes.getKSP()
+        return ksp.getType() == "preonly" and ksp.getPC().getType() in ("lu", "cholesky")
 
     def respond(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
         """The state change (local entries of the bordered vector) that cancels a change of the
@@ -347,7 +357,8 @@ class NewtonSolver:
         """Newton from x (updated in place); returns (converged, iterations, residual, reason).
         ``chord_start``: the first step reuses the last factorization (Newton again from a
         converged state whose loads changed a little: an augmentation, or the solve that ends
-        them, unless a new contact search came with it). ``loose``: converged once the residual
+        them, unless a new contact search came with it), and the later ones too while they
+        contract, though contact points changed (module docstring). ``loose``: converged once the residual
         is LOOSE_RTOL times its start, each block in units of its tolerance (an augmentation's
         solve, inexact while the multipliers still move). ``again``: the same increment solved
         again (after a new search, or an augmentation); unless loose, each block's scale is then

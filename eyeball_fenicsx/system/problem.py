@@ -189,10 +189,10 @@ class Problem:
         self.A = self._create_matrix()
         return True
 
-    def tangent_outdated(self) -> bool:
+    def tangent_outdated(self, corrected: bool = False) -> bool:
         """Collective: an active set changed since the last tangent (its factorization then is
         no Newton step); every feature is asked, so that their collectives stay aligned."""
-        return any([f.tangent_outdated() for f in self.active_sets])
+        return any([f.tangent_outdated(corrected) for f in self.active_sets])
 
     # -- steps ---------------------------------------------------------------------------
     def begin_step(self, step_index: int) -> None:
