@@ -8,7 +8,8 @@ Exit codes (the scene contract): 0 every step converged; 2 the scene or mesh is 
 command-line option is unknown, or the checkpoint to resume is damaged or another scene's);
 3 a step did not converge after the automatic cut-backs; 4 a signal (SIGTERM, SIGINT, SIGUSR1)
 stopped the run at a safe point, with the last converged state kept (``--resume`` continues it);
-5 the output folder could not be written (a full disk, no permission), what was written kept.
+5 the output folder could not be written (a full disk, no permission) or a picture could not be
+drawn, what was written kept.
 Errors are one line on stderr. Options after the scene that start with one dash
 (``-eye_snes_monitor``...) go to PETSc; an option with two dashes that is not the command's own
 is an error, never handed to PETSc. The load increments are printed on stdout by rank 0

@@ -19,5 +19,5 @@ class Interrupted(RuntimeError):
 
 
 class OutputError(OSError):
-    """The output folder could not be written (a full disk, no permission), on every rank
-    together, with what was written before kept: the CLI exits 5."""
+    """The output folder could not be written (a full disk, no permission) or a picture could
+    not be drawn, on every rank together, with what was written before kept: the CLI exits 5."""

@@ -562,6 +562,7 @@ def test_a_chord_step_for_changed_contacts_is_the_newton_step_of_a_new_tangent(c
     problem.F(None, x, b)
     _, pressing, _, _ = plane._pressures()
     assert comm.allreduce(int(np.sum(pressing != pressed)), op=MPI.SUM) > 0  # the points that press changed
+    assert problem.tangent_outdated() and not problem.tangent_outdated(corrected=True)  # Newton would reuse it
     chord = corrected_step()
     problem.J(None, x, A, A)  # a new tangent, with the points that press now
     newton_step = corrected_step()

@@ -136,22 +136,27 @@ class ContactFeature(AugmentedLagrangian, Feature):
 
     def tangent_outdated(self, corrected: bool = False) -> bool:
         """True (on every rank: collective) if the contacts changed since the last tangent was
-        assembled in a way the closing step cannot correct: a factorization of that tangent then
-        is no Newton step. Points that press now and did not then, or the other way round, it
-        corrects (compliance.py), unless the law is smoothed; a point that pressed then and now
-        on another segment, or a new penalty, it does not."""
+        assembled: a factorization of that tangent then is no Newton step. With ``corrected``,
+        only if they changed in a way the closing step cannot correct: points that press now and
+        did not then, or the other way round, it corrects (compliance.py), unless the law is
+        smoothed; a point of the tangent now on another segment or on none, or a new penalty, it
+        does not."""
         if not self.active:
             return False
+        correctable = corrected and self.smoothing == 0.0
+        sel = self._selection_now() if correctable else None  # collective: on every rank alike
         tangent, residual = self._contacts["jacobian"], self._contacts["residual"]
         fits = tangent is not None and residual is not None
         if fits and not np.array_equal(tangent, residual):
-            fits = corrected
-            _, i, j = np.intersect1d(tangent[:, 0], residual[:, 0], assume_unique=True, return_indices=True)
-            fits = fits and self.smoothing == 0.0 and np.array_equal(tangent[i, 1], residual[j, 1])
+            fits = correctable
+            if fits:  # every point of the tangent still on its segment
+                _, i, j = np.intersect1d(tangent[:, 0], sel.point, return_indices=True)
+                fits = len(i) == len(tangent) and np.array_equal(tangent[i, 1], sel.target[j])
         return self.solid.comm.allreduce(not fits, op=MPI.LOR)
 
     def in_tangent(self, point: np.ndarray) -> np.ndarray:
-        """Which of the points press in the last tangent assembled."""
+        """Which of the points press in the last tangent assembled (on the segments they are on
+        now, where ``tangent_outdated(corrected=True)`` is False)."""
         tangent = self._contacts["jacobian"]
         return np.isin(point, tangent[:, 0]) if tangent is not None else np.zeros(len(point), dtype=bool)
 

@@ -48,9 +48,13 @@ now, p0 = -alpha s0 its pressure; q, r, t whether the point is in Q, P, T), so
 
     e / alpha + sigma C e = (r - q) s0 - sigma Gamma . du0,    sigma = q - t,
 
-the system above where P = T (s = s0 + Gamma . du0); a point of T and Q but not of P takes its
-force, -alpha s0, as a fixed pressure, and one of P alone loses it. Points whose r and t
-differ leave and join S by the gap the round leaves them.
+the system above where P = T (s = s0 + Gamma . du0). A point whose r and t differ stays in S:
+if q is t, its row fixes e (its force, -alpha s0, put in or taken out), which leaves the
+system block-triangular with the rows above; the rounds move it between the two kinds by the
+gap they leave it. Only the penalty's part of the tangent is corrected: the terms that scale
+with the pressure (the curvature of the master, or of a rigid sphere or cylinder) stay as the
+tangent had them, exact for a flat rigid body and otherwise what makes the chord step a chord
+step, which converges linearly (newton.py takes a new tangent once one contracts too little).
 
 A contact pair's tangent is not quite symmetric (its curvature terms), and GMRES then gives the
 approximate solve the step needs: an inexact Newton step (to COMPLIANCE_RTOL, a tenth: each
@@ -138,8 +142,9 @@ def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None
     sel, on, _, _ = feature._pressures()
     alpha, weight = feature.alpha[sel.point], feature.weight[sel.point]
     tangent = feature.in_tangent(sel.point)
-    shifted = sel.g - feature._point_multipliers()[sel.point] / alpha
-    predicted = shifted + gap_rate(feature, du)
+    multiplier = feature._point_multipliers()[sel.point]
+    predicted = sel.g + gap_rate(feature, du) - multiplier / alpha
+    shifted = sel.g - multiplier / alpha
     press = np.where(tangent, predicted <= 0.0, predicted < 0.0)
     if not comm.allreduce(bool(np.any((press != tangent) | (press != on))), op=MPI.LOR):
         return None

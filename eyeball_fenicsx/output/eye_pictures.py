@@ -226,17 +226,19 @@ class EyePictures(Observer):
         section, _, mises = meridional_section(self.solid.mesh_data, solid=self.solid, field=self.measures.mises,
                                                root=1 if size > 2 else 0)
         X, gap = self.measures.retina_gap_map(root=size - 1)
+        drawings = {"surface": lambda: self._surface.draw(surface, files["surface"], title)}
+        if section is not None and len(section):
+            drawings["section"] = lambda: self._section.draw(section, mises, files["section"], title)
+        if X is not None:
+            drawings["retina_gap"] = lambda: retina_gap_png(
+                np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap, files["retina_gap"],
+                DETACHED_GAP, title=f"{self.scene}, step {step}: the detached retina")
         failure = None
-        try:
-            self._surface.draw(surface, files["surface"], title)
-            if section is not None and len(section):
-                self._section.draw(section, mises, files["section"], title)
-            if X is not None:
-                retina_gap_png(np.degrees(np.arctan2(X[:, 1], X[:, 0])), np.degrees(polar_angle(X)), gap,
-                               files["retina_gap"], DETACHED_GAP,
-                               title=f"{self.scene}, step {step}: the detached retina")
-        except Exception as error:  # said on every rank, none left waiting for the others
-            failure = f"could not draw the pictures of step {step} ({type(error).__name__}: {error})"
+        for kind, draw in drawings.items():
+            try:
+                draw()
+            except Exception as error:  # said on every rank, none left waiting for the others
+                failure = failure or f"could not draw {files[kind]} ({type(error).__name__}: {error})"
         raise_any_rank_failure(failure, self.solid.comm)  # the run's page (output/report.py, rank 0) shows them next
 
     def finish(self, summary: dict) -> None:

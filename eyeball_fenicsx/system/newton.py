@@ -18,11 +18,12 @@ keeps a tangent's preconditioner for chord steps the same way:
 * factorization reuse (chord steps): after a Newton step that cut the residual by at least
   ``settings.SolverSettings.reuse_contraction``, the next step reuses the factorization instead of
   assembling and factorizing a new tangent; a reused step that contracts less ends the reuse.
-  A tangent whose contact points changed since it was assembled is reused only by a solve that
-  started from it (``chord_start``: an augmentation's, or the one at the usual tolerances that
-  ends them, near the converged state, where a multiplier update moves a few points), and then
-  with the closing step (``ActiveSet.closing_step``), which gives its steps the state's pressing
-  points; other solves (an increment's first, one after a new search) assemble a new one.
+  A tangent whose contact points changed since it was assembled is reused only in a solve that
+  started from the last factorization (``chord_start``: an augmentation's, or the one at the
+  usual tolerances that ends them, near the converged state, where a multiplier update moves a
+  few points), by any of its steps, and then with the closing step (``ActiveSet.closing_step``),
+  which gives its steps the state's pressing points; other solves (an increment's first, one
+  after a new search) assemble a new one.
   A chord step converges linearly, so it would stop just below the tolerance, where Newton's
   quadratic last step lands far below it: after a reused factorization, convergence needs a
   residual ``POLISH`` times below the tolerance (or a chord step that no longer contracts, at
@@ -184,8 +185,8 @@ class NewtonSolver:
         norms = self.residual_norms
         first = snes.getIterationNumber() == 0
         contracted = self.chord_start if first else norms[-1] <= self.reuse_contraction * norms[-2]
-        # a tangent whose contact points changed since: reused only by a solve that started from it
-        # (near a converged state), with the closing step, which gives it the state's points
+        # a tangent whose contact points changed since: reused only in a solve that started from the
+        # last factorization (near a converged state), with the closing step giving it the state's points
         self.reused = contracted and not self.problem.tangent_outdated(self.chord_start and self._holds_factorization())
         if self.reused:
             return
