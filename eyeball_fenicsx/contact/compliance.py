@@ -145,7 +145,7 @@ def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None
     multiplier = feature._point_multipliers()[sel.point]
     predicted = sel.g + gap_rate(feature, du) - multiplier / alpha
     shifted = sel.g - multiplier / alpha
-    press = np.where(tangent, predicted <= 0.0, predicted < 0.0)
+    press = np.where(tangent, ~(predicted > 0.0), predicted < 0.0)  # as the rule before it, NaN included
     if not comm.allreduce(bool(np.any((press != tangent) | (press != on))), op=MPI.LOR):
         return None
     settled = on == tangent  # the state's pressing points are the tangent's
@@ -170,7 +170,7 @@ def closing_step(feature, du: np.ndarray, respond: Respond) -> np.ndarray | None
             change = np.zeros_like(du)
         after = predicted + gap_rate(feature, change)
         chosen = np.where(settled & changing, np.where(e > 0.0, press, tangent),
-                          np.where(tangent, after <= 0.0, after < 0.0))
+                          np.where(tangent, ~(after > 0.0), after < 0.0))
         if not comm.allreduce(bool(np.any(chosen != press)), op=MPI.LOR):
             break
         press = chosen
