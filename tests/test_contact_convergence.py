@@ -469,6 +469,19 @@ def test_ring_newton_converges_quadratically(ring):
 
 
 
+def _rigid_on_a_block(name, rigid):
+    """The block of 5 x 5 x 2 hexahedra (1 x 1 x 0.5) on rollers, pressed by the rigid body ``rigid``
+    (on its top, ``solid_z1``) in one increment: the scene, run."""
+    axis = np.linspace(0.0, 1.0, 6)
+    mesh = blocks_mesh(("solid", axis, axis, np.linspace(0.0, 0.5, 3)))
+    scene = ef.Scene(name, mesh, {"solid": ef.NeoHooke(0.5)},
+                     features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
+                               ef.Dirichlet("solid_z0", {"z": 0.0}), rigid],
+                     solver=ef.SolverSettings(increments=1))
+    assert scene.run()["ok"]
+    return scene
+
+
 def test_a_settled_update_that_would_press_or_release_a_point_is_not_taken():
     """The last, settled multiplier update is free only while it presses and releases no point:
     Newton solves once more anyway, and from the last factorization if the points that press stay
@@ -476,15 +489,9 @@ def test_a_settled_update_that_would_press_or_release_a_point_is_not_taken():
     settled updates of one slave node's multiplier: of the node that presses an open point soonest,
     raised 0.9 of the way (taken) and 1.1 of the way (not taken); of the node that releases a
     pressing point soonest, lowered alike. Either way the state before it can be taken back."""
-    axis = np.linspace(0.0, 1.0, 6)
     pair = RigidContact("sphere", "solid_z1", "sphere", center=[0.0, 0.0, 2.5], radius=2.0,
                         displacement=[0.0, 0.0, -0.03])
-    mesh = blocks_mesh(("solid", axis, axis, np.linspace(0.0, 0.5, 3)))
-    scene = ef.Scene("indent", mesh, {"solid": ef.NeoHooke(0.5)},
-                     features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
-                               ef.Dirichlet("solid_z0", {"z": 0.0}), pair],
-                     solver=ef.SolverSettings(increments=1))
-    assert scene.run()["ok"]
+    _rigid_on_a_block("indent", pair)
     comm = MPI.COMM_WORLD
     pair.set_increment(True)  # the elements' penalty, as the updates below have it
     sel, on, _, _ = pair._pressures()
@@ -531,15 +538,9 @@ def test_a_chord_step_for_changed_contacts_is_the_newton_step_of_a_new_tangent(c
     GMRES solved to round-off here; a plane has no curvature, so the two tangents differ in those
     points' penalties only)."""
     monkeypatch.setattr(compliance, "COMPLIANCE_RTOL", 1e-13)
-    axis = np.linspace(0.0, 1.0, 6)
     plane = RigidContact("plane", "solid_z1", "plane", point=[0.0, 0.0, 0.5], normal=[0.1, 0.0, -1.0],
                          displacement=[0.0, 0.0, -0.03])
-    mesh = blocks_mesh(("solid", axis, axis, np.linspace(0.0, 0.5, 3)))
-    scene = ef.Scene("tilted plane", mesh, {"solid": ef.NeoHooke(0.5)},
-                     features=[ef.Dirichlet("solid_x0", {"x": 0.0}), ef.Dirichlet("solid_y0", {"y": 0.0}),
-                               ef.Dirichlet("solid_z0", {"z": 0.0}), plane],
-                     solver=ef.SolverSettings(increments=1))
-    assert scene.run()["ok"]
+    scene = _rigid_on_a_block("tilted plane", plane)
     problem, newton, comm = scene.problem, scene.newton, MPI.COMM_WORLD
     ksp, A, x, b = newton.snes.getKSP(), problem.A, problem.x, problem.b
     ksp.setOperators(A)

@@ -23,9 +23,9 @@ solves once more anyway (at the usual tolerances, or for another feature's pass)
 would press or release a point: an update that moves no node by more than the settled depth is
 not worth the contacts it would change (points standing just off the master, pressing only
 through their neighbours' multipliers, flip so; benchmarks/README.md), which that solve's chord
-steps from the last factorization would have to correct (compliance.py). A penalty that grows outdates the
-tangent (no chord step with the old one). Increments inside a step take one update each, without
-solving again (it starts the next increment closer).
+steps from the last factorization would have to correct (compliance.py). A penalty that grows
+outdates the tangent (no chord step with the old one). Increments inside a step take one update
+each, without solving again (it starts the next increment closer).
 
 ``AugmentedLagrangian`` is a mixin of ``ContactFeature`` (base.py), which gives it ``active``,
 ``solid``, the points (``weight``, ``alpha``, ``thickness``, ``point_nodes``, ``point_N``), their
