@@ -1,5 +1,5 @@
 """What a run writes: field output (XDMF for ParaView), summary.json and pictures (small plots
-of curves drawn by one rank, or by the ranks together, each its rows: ``plot_curves``).
+of curves drawn by one rank, or by the ranks together, each its cells: ``plot_curves``).
 
 Every file appears atomically: summary.json and the PNG pictures are written to a temporary
 name and renamed; the XDMF/HDF5 pair is written in a hidden folder and moved into place when
@@ -158,8 +158,7 @@ def save_pixels_atomic(pixels: np.ndarray, path: str) -> None:
 
 # The margins (inches) of each small plot of ``plot_curves`` in its 4 x 3 in cell: room for
 # the y tick labels on the left, the title above, the slanted x tick labels and the x label below.
-# At DPI, the cells and the margins are whole pixels, so that rows drawn apart stack into the
-# same picture (an edge half a pixel off would be snapped either way by round-off).
+# At DPI, the cells are whole pixels, so that cells drawn apart stack into one picture.
 DPI = 110
 CELL, MARGINS = (4.0, 3.0), {"left": 88 / DPI, "right": 16 / DPI, "top": 38 / DPI, "bottom": 88 / DPI}
 
@@ -169,7 +168,7 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
                 comm: MPI.Comm | None = None) -> None:
     """A PNG of small plots, one curve each, against the same x (matplotlib Agg), three in a
     row, each in a cell of fixed margins (``MARGINS``). Call on one rank, or on every rank of
-    ``comm``: then each draws only its share of the rows, and rank 0 stacks their pixels and
+    ``comm``: then each draws only its share of the cells, and rank 0 stacks their pixels and
     writes the picture; a failure on any rank, drawing or writing, is an ``OutputError`` on every
     rank (none is left waiting for the others).
 
@@ -179,14 +178,15 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
         bands: {title: (lower values, upper values)}: a shaded band about the curve of that
             title, named ``band_label`` in its legend.
     """
-    columns = min(3, len(curves))
-    lines = -(-len(curves) // columns)
+    def draw(names):
+        return _cells(x, {name: curves[name] for name in names}, xlabel, xticklabels, bands or {}, band_label)
     if comm is None:
-        save_pixels_atomic(_rows(x, curves, xlabel, xticklabels, bands, band_label, columns, 0, lines), path)
+        save_pixels_atomic(_stacked(draw(list(curves))), path)
         return
-    first, last = lines * comm.rank // comm.size, lines * (comm.rank + 1) // comm.size  # this rank's rows
+    names = list(curves)
+    mine = names[len(names) * comm.rank // comm.size: len(names) * (comm.rank + 1) // comm.size]
     try:
-        drawn = None, _rows(x, curves, xlabel, xticklabels, bands, band_label, columns, first, last)
+        drawn = None, draw(mine)
     except Exception as error:  # sent to rank 0, which says it on every rank
         drawn = f"could not draw {path} ({type(error).__name__}: {error})", None
     drawn = comm.gather(drawn, root=0)
@@ -195,34 +195,50 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
         failure = next((message for message, _ in drawn if message), None)
         try:
             if failure is None:
-                save_pixels_atomic(np.concatenate([pixels for _, pixels in drawn]), path)
+                save_pixels_atomic(_stacked([cell for _, cells in drawn for cell in cells]), path)
         except OSError as error:
             failure = _could_not_write(path, error)
     raise_on_every_rank(failure, comm)
 
 
-def _rows(x, curves, xlabel, xticklabels, bands, band_label, columns, first, last) -> np.ndarray:
-    """The pixels of rows ``first`` to ``last`` (excluded) of ``plot_curves``' picture (none: an
-    empty array as wide as the picture)."""
-    if last == first:
-        return np.zeros((0, round(CELL[0] * columns * DPI), 3), dtype=np.uint8)
-    width, height = CELL[0] * columns, CELL[1] * (last - first)
-    figure = new_figure((width, height))
-    for k, (name, y) in enumerate(list(curves.items())[first * columns: last * columns]):
-        line, column = divmod(k, columns)
-        ax = figure.add_axes(((column * CELL[0] + MARGINS["left"]) / width,
-                              ((last - first - 1 - line) * CELL[1] + MARGINS["bottom"]) / height,
-                              (CELL[0] - MARGINS["left"] - MARGINS["right"]) / width,
-                              (CELL[1] - MARGINS["top"] - MARGINS["bottom"]) / height))
-        ax.plot(x, y, "o-")
-        if bands and name in bands:
-            ax.fill_between(x, *bands[name], alpha=0.3, label=band_label)
-            ax.legend(fontsize=7)
-        ax.set_xlabel(xlabel)
+def _cells(x, curves, xlabel, xticklabels, bands, band_label) -> list[np.ndarray]:
+    """The pixels of ``plot_curves``' small plots, one cell each, drawn in turn on one axes (an
+    axes made anew for each, with its ticks and their labels, costs more than drawing it)."""
+    width, height = CELL
+    figure = new_figure(CELL)
+    ax = figure.add_axes((MARGINS["left"] / width, MARGINS["bottom"] / height,
+                          (width - MARGINS["left"] - MARGINS["right"]) / width,
+                          (height - MARGINS["top"] - MARGINS["bottom"]) / height))
+    (line,) = ax.plot([], [], "o-")
+    ax.set_xlabel(xlabel)
+    if xticklabels is not None:
+        ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
+    pixels = []
+    for name, y in curves.items():
+        if len(y) != len(x):  # set_data would broadcast them
+            raise ValueError(f"{len(y)} values of {name!r} for {len(x)} x values")
+        line.set_data(x, y)
+        ax.relim()
+        shown = []
+        if name in bands:
+            lower, upper = bands[name]
+            shown = [ax.fill_between(x, lower, upper, facecolor=line.get_color(), alpha=0.3, label=band_label)]
+            ax.update_datalim(np.column_stack([[*x, *x], [*lower, *upper]]))  # relim leaves a band out
+            shown.append(ax.legend(fontsize=7))
+        ax.autoscale_view()
         _title(ax, name)
-        if xticklabels is not None:
-            ax.set_xticks(x, xticklabels, rotation=30, fontsize=8)
-    return render(figure, DPI)
+        pixels.append(render(figure, DPI))
+        for artist in shown:
+            artist.remove()
+    return pixels
+
+
+def _stacked(cells: list[np.ndarray]) -> np.ndarray:
+    """The cells of ``plot_curves``, three to a row (the last row's free places white)."""
+    columns = min(3, len(cells))
+    blank = np.full_like(cells[0], 255)
+    cells = cells + [blank] * (-len(cells) % columns)
+    return np.vstack([np.hstack(cells[k: k + columns]) for k in range(0, len(cells), columns)])
 
 
 def _title(ax, name: str) -> None:
