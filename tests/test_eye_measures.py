@@ -4,6 +4,7 @@ pictures a scene with an [eye] table draws.
 The displacements are prescribed (interpolated into the solid's state), not solved for: the
 measures must read them back. Runs in serial and under ``mpirun -n 2``.
 """
+import io
 import math
 import os
 
@@ -21,7 +22,7 @@ from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.output import eye_pictures
 from eyeball_fenicsx.output.eye_pictures import EyePictures, eye_measures_png
-from eyeball_fenicsx.output.files import plot_curves
+from eyeball_fenicsx.output.files import png_bytes, plot_curves
 from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
 from eyeball_fenicsx.scene.loader import load_scene
 
@@ -217,6 +218,20 @@ def test_the_measures_picture_drawn_by_every_rank_is_the_one_rank_picture(buckle
                                                                      tmp_path / "one_rank.png"))
         assert together.shape == alone.shape == (330 * 7, 3 * 440, 3)  # its measures fill 7 rows of 3
         assert np.array_equal(together, alone)
+
+
+def test_the_pictures_png_files_decode_to_their_pixels(buckled):
+    """``png_bytes`` writes PNG itself (unfiltered rows, one zlib stream): another decoder, Pillow's,
+    reads back every pixel, of random colours of odd sizes and of the run's measures picture."""
+    from PIL import Image
+    _, _, out = buckled
+    rng = np.random.default_rng(COMM.rank)
+    drawn = np.asarray(Image.open(os.path.join(out, "eye_measures.png")))
+    for pixels in (rng.integers(0, 256, (1, 1, 3), dtype=np.uint8), rng.integers(0, 256, (7, 13, 3), dtype=np.uint8),
+                   drawn):
+        with Image.open(io.BytesIO(png_bytes(pixels))) as read:
+            assert read.mode == "RGB"
+            assert np.array_equal(np.asarray(read), pixels)
 
 
 def test_a_failure_of_a_picture_the_ranks_draw_together_is_an_error_on_every_rank(tmp_path_factory):
