@@ -22,7 +22,7 @@ from eyeball_fenicsx.meshing.builders import buckled_eye, eye
 from eyeball_fenicsx.meshing.load import built_mesh
 from eyeball_fenicsx.output import eye_pictures
 from eyeball_fenicsx.output.eye_pictures import EyePictures, eye_measures_png
-from eyeball_fenicsx.output.files import png_bytes, plot_curves
+from eyeball_fenicsx.output.files import plot_curves, png_bytes
 from eyeball_fenicsx.output.measures import DETACHED_GAP, PENETRATION_TOLERANCE, EyeMeasures
 from eyeball_fenicsx.scene.loader import load_scene
 
