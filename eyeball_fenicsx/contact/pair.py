@@ -22,10 +22,14 @@ between evaluations but where each projection's Newton starts (the foot found la
 same segment, until the next search).
 
 The matrix has room for every (slave facet, segment) pair a search finds; it is preallocated
-anew when a search finds a pair it has no room for, and at the first increment of every step
-(unless no tangent was assembled in it yet and the search found the pairs it was made for),
-so that a step's arithmetic depends on the state it starts from only: a step resumed from a
-checkpoint (output/checkpoint.py) repeats the interrupted run's to the bit.
+anew when a search finds a pair it has no room for. On one rank it is also made anew at the
+first increment of every step (unless no tangent was assembled in it yet and the search found
+the pairs it was made for), so that a step's arithmetic depends on the state it starts from
+only: a step resumed from a checkpoint (output/checkpoint.py) repeats the interrupted run's to
+the bit (MUMPS' analysis of a matrix on one rank reads its values, so one kept from the step
+before would change the round-off). On several ranks no run repeats another to the bit (MUMPS
+sums in the order its messages arrive), and the matrix and its analysis are kept from one step
+to the next while they have room (the seed's operation: one analysis, not three).
 
 Parallel: each rank owns the slave facets of its cells, and holds of the master surface only
 the segments whose search boxes meet the box of its slave points, with the nodes their normal
@@ -316,9 +320,10 @@ class ContactPair(ContactFeature):
         self._search()
         self._unreserved = True
         keys = self.candidate_keys = self._keys()
-        # a new step's matrix is made anew, unless no tangent went into the one there is and
-        # it was made for these very keys (the first increment after ``setup``)
-        anew = self._new_step and (self._assembled or not np.array_equal(keys, self.pattern_keys))
+        # on one rank a new step's matrix is made anew, unless no tangent went into the one there is
+        # and it was made for these very keys (the first increment after ``setup``; module docstring)
+        anew = self._new_step and self.solid.comm.size == 1 and (
+            self._assembled or not np.array_equal(keys, self.pattern_keys))
         self._new_step = False
         if not anew and np.all(np.isin(keys, self.pattern_keys, assume_unique=True)):
             return False
