@@ -12,7 +12,8 @@ afterwards), the second is the one reported, with its time split into
 * per step: wall time of its converged increments, their number, Newton iterations,
   factorizations;
 * inside the Newton iterations (PETSc events and the contact features' own timers): MUMPS
-  numeric factorization, Jacobian and residual evaluation, contact search and assembly;
+  numeric factorization, its symbolic analysis (one per matrix pattern), Jacobian and residual
+  evaluation, contact search and assembly;
 * every Newton solve's residual norms (``newton_solves``, failed attempts and the augmented
   Lagrangian's re-solves included), what each was for, summed by kind (``solves_by_kind``:
   increments' first solves, solves after a new search, augmentations, the solves that end them,
@@ -43,7 +44,8 @@ from eyeball_fenicsx.system import stepping
 comm = MPI.COMM_WORLD
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = os.path.join(HERE, "..", "demos", "encircling_buckle_seed.toml")
-EVENTS = {"factorization": ("MatLUFactorNum", "MatCholFctrNum"), "jacobian": ("SNESJacobianEval",),
+EVENTS = {"factorization": ("MatLUFactorNum", "MatCholFctrNum"), "analysis": ("MatLUFactorSym", "MatCholFctrSym"),
+          "jacobian": ("SNESJacobianEval",),
           "residual": ("SNESFunctionEval",), "solve (triangular)": ("MatSolve",)}
 ROUND_OFF = 1e-11  # residual norms (N) below this are round-off on the default eye
 
