@@ -12,8 +12,9 @@ afterwards), the second is the one reported, with its time split into
 * per step: wall time of its converged increments, their number, Newton iterations,
   factorizations;
 * inside the Newton iterations (PETSc events and the contact features' own timers): MUMPS
-  numeric factorization, its symbolic analysis (one per matrix pattern), Jacobian and residual
-  evaluation, contact search and assembly;
+  numeric factorization, its symbolic analyses (a new one whenever the matrix's nonzero pattern
+  changed), Jacobian and residual evaluation, contact search and assembly, and how many of each
+  PETSc event there were (``inside_newton_count``);
 * every Newton solve's residual norms (``newton_solves``, failed attempts and the augmented
   Lagrangian's re-solves included), what each was for, summed by kind (``solves_by_kind``:
   increments' first solves, solves after a new search, augmentations, the solves that end them,
@@ -50,9 +51,10 @@ EVENTS = {"factorization": ("MatLUFactorNum", "MatCholFctrNum"), "analysis": ("M
 ROUND_OFF = 1e-11  # residual norms (N) below this are round-off on the default eye
 
 
-def event_seconds():
-    """Seconds so far per group of PETSc events, averaged over the ranks."""
-    return {group: comm.allreduce(sum(PETSc.Log.Event(name).getPerfInfo()["time"] for name in names),
+def event_seconds(what="time"):
+    """Seconds so far per group of PETSc events, averaged over the ranks (or, ``what`` "count",
+    how many there were)."""
+    return {group: comm.allreduce(sum(PETSc.Log.Event(name).getPerfInfo()[what] for name in names),
                                   op=MPI.SUM) / comm.size for group, names in EVENTS.items()}
 
 
@@ -155,7 +157,7 @@ def run_once(n_circ, out):
     start = time.perf_counter()
     scene = load_scene(SCENE, overrides={"mesh.n_circ": n_circ})
     mesh_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
-    before = event_seconds()
+    before, counted = event_seconds(), event_seconds("count")
     start = time.perf_counter()
     scene.build()
     build_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
@@ -166,6 +168,7 @@ def run_once(n_circ, out):
     run_s = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     failed_s = comm.allreduce(sum(f["wall_s"] for f in attempts.failed), op=MPI.MAX)
     events = {k: v - before[k] for k, v in event_seconds().items()}
+    counts = {k: round(v - counted[k]) for k, v in event_seconds("count").items()}
     contact = {}
     for feature in scene.features:
         if isinstance(feature, ContactPair):
@@ -183,7 +186,7 @@ def run_once(n_circ, out):
             "mesh_s": mesh_s, "run_s": run_s, "setup_output_and_cut_back_s": setup_s,
             "setup_s": build_s, "failed_increments_s": failed_s, "output_s": setup_s - build_s - failed_s,
             "failed_increments": attempts.failed, "steps": steps,
-            "inside_newton_s": {**events, **contact},
+            "inside_newton_s": {**events, **contact}, "inside_newton_count": counts,
             "newton_solves": residuals.solves, "solves_by_kind": residuals.by_kind(),
             "convergence_orders": residuals.orders(),
             "buckle": {"axial_length_change_mm": final["axial_length_mm"] - first["axial_length_mm"],
@@ -224,7 +227,8 @@ def main():
                   f"{row['new_tangents']:3d} new tangents")
         print("  inside the Newton iterations:")
         for key, seconds in result["inside_newton_s"].items():
-            print(f"    {key:<26}{seconds:8.1f} s")
+            count = result["inside_newton_count"].get(key)
+            print(f"    {key:<26}{seconds:8.1f} s" + (f"  ({count})" if count is not None else ""))
         orders = sorted(result["convergence_orders"])
         if orders:
             print(f"  order of convergence of the last Newton step with a new tangent, in {len(orders)} of "

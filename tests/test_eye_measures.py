@@ -207,7 +207,7 @@ def test_scene_writes_measures_and_pictures(buckled):
 
 
 def test_the_measures_picture_drawn_by_every_rank_is_the_one_rank_picture(buckled, tmp_path):
-    """The run's eye_measures.png, its rows drawn by the ranks apart (``plot_curves``), has the
+    """The run's eye_measures.png, its cells drawn by the ranks apart (``plot_curves``), has the
     pixels of the same picture drawn whole on one rank (with half-pixel margins it did not: 4088
     pixels of the top row's frame differed on 2 ranks)."""
     _, _, out = buckled
@@ -220,13 +220,43 @@ def test_the_measures_picture_drawn_by_every_rank_is_the_one_rank_picture(buckle
         assert np.array_equal(together, alone)
 
 
+def test_each_small_plot_is_drawn_as_if_alone(tmp_path_factory):
+    """``plot_curves`` draws its plots in turn on one axes, and the ranks each their share: every
+    plot must come out as it does drawn alone, whatever came before it on that axes (a title that
+    must rise over its axis' offset or multiplier, a curve with no finite value, a band and its
+    legend), and whichever rank draws it."""
+    from PIL import Image
+    nan = float("nan")
+    curves = {"a plain curve first, with a title long enough to meet an offset (mm)": [10.0, 20.0, 30.0],
+              "a multiplier over its y axis, with a title long enough to meet it (mm)": [1e-7, 3e-7, 2e-7],
+              "no finite value": [nan, nan, nan],
+              "an offset over its y axis, with a title long enough to meet it too (mm)": [23.41, 23.4102, 23.4101],
+              "banded": [1.0, 2.0, 3.0], "constant": [5.0, 5.0, 5.0], "plain again": [3.0, 1.0, 2.0]}
+    bands = {"banded": ([0.0, 1.0, 2.0], [2.0, 3.0, 6.0]), "no finite value": ([nan] * 3, [nan] * 3)}
+    x, labels = [22.0, 24.0, 28.0], ["first", "second", "third"]
+    folder = COMM.bcast(str(tmp_path_factory.mktemp("cells")) if COMM.rank == 0 else None, root=0)
+    plot_curves(os.path.join(folder, "all.png"), x, curves, "step", labels, bands, "band", comm=COMM)
+    if COMM.rank == 0:
+        with Image.open(os.path.join(folder, "all.png")) as picture:
+            together = np.asarray(picture)
+        for k, name in enumerate(curves):
+            plot_curves(os.path.join(folder, "one.png"), x, {name: curves[name]}, "step", labels, bands, "band")
+            with Image.open(os.path.join(folder, "one.png")) as picture:
+                alone = np.asarray(picture)
+            row, column = divmod(k, 3)
+            cell = together[row * alone.shape[0]: (row + 1) * alone.shape[0],
+                            column * alone.shape[1]: (column + 1) * alone.shape[1]]
+            assert np.array_equal(cell, alone), name
+
+
 def test_the_pictures_png_files_decode_to_their_pixels(buckled):
     """``png_bytes`` writes PNG itself (unfiltered rows, one zlib stream): another decoder, Pillow's,
     reads back every pixel, of random colours of odd sizes and of the run's measures picture."""
     from PIL import Image
     _, _, out = buckled
     rng = np.random.default_rng(COMM.rank)
-    drawn = np.asarray(Image.open(os.path.join(out, "eye_measures.png")))
+    with Image.open(os.path.join(out, "eye_measures.png")) as picture:
+        drawn = np.asarray(picture)
     for pixels in (rng.integers(0, 256, (1, 1, 3), dtype=np.uint8), rng.integers(0, 256, (7, 13, 3), dtype=np.uint8),
                    drawn):
         with Image.open(io.BytesIO(png_bytes(pixels))) as read:
@@ -235,7 +265,7 @@ def test_the_pictures_png_files_decode_to_their_pixels(buckled):
 
 
 def test_a_failure_of_a_picture_the_ranks_draw_together_is_an_error_on_every_rank(tmp_path_factory):
-    """``plot_curves`` with a communicator: a picture rank 0 cannot write, or rows one rank cannot
+    """``plot_curves`` with a communicator: a picture rank 0 cannot write, or cells one rank cannot
     draw (here the last rank's: a curve one value short), is an OutputError on every rank, not a
     rank left waiting for the others in a collective."""
     curves = {f"measure {k}": [0.0, 1.0] for k in range(5)}

@@ -171,16 +171,12 @@ class ContactFeature(AugmentedLagrangian, Feature):
 
     def add_to_jacobian(self, A: PETSc.Mat) -> None:
         start = time.perf_counter()
-        self._reserve(A)
         if self.active:
             state = self._state(tangent=True)
             self._contacts["jacobian"] = state["contacts"]
             if len(state["rows"]):  # one dense block per point, set in one call (PETSc loops)
                 A.setValuesRCV(state["rows"], state["rows"], state["K"], addv=_ADD)
         self.timing["assembly"] += time.perf_counter() - start
-
-    def _reserve(self, A):
-        """Make room in A for the entries contact may add later (nothing by default)."""
 
     def search_covers(self) -> bool:
         """True: no search to outgrow by default (a rigid body's points couple only their own node)."""

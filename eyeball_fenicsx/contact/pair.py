@@ -44,7 +44,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from .. import checks
 from ..arrays import distinct_pairs
@@ -128,13 +127,12 @@ class ContactPair(ContactFeature):
         # the master segments near this rank's slave points, exchanged at every search (master.py)
         self.master = DistributedMaster(comm, tables, master, self.symmetry)
         self.largest_segment = comm.allreduce(float(self.master.size.max(initial=0.0)), op=MPI.MAX)
-        self._unreserved, self._new_step, self._assembled = True, False, False
+        self._new_step, self._assembled = False, False
         self._last = (self._slave_points(), self.master.corners(self.solid.w.x.array))
         self._offset = np.zeros(len(self.weight))  # each point's gap in the mesh, where adjust closes it
         self._search()
         self._close_clearance()
-        self.candidate_keys = self._keys()
-        self._set_pattern(self.candidate_keys)
+        self._set_pattern(self._keys())
 
     def _close_clearance(self):
         """``adjust``: the points whose gap in the mesh (the state at setup) is at most adjust, either
@@ -299,18 +297,9 @@ class ContactPair(ContactFeature):
         keys = nodes[:, :, None] * 2**31 + nodes[:, None, :]
         return np.unique(keys)
 
-    def _reserve(self, A):
-        """Zeros in A for every node pair the candidates may couple, once after each search:
-        PETSc drops the preallocated room a final assembly left unused, so a point that meets a
-        new segment later in the increment would cost a malloc."""
-        self._assembled = True
-        if not self._unreserved:
-            return
-        keys = self.candidate_keys
-        if len(keys):
-            A.setValuesRCV(self._node_dofs(keys // 2**31), self._node_dofs(keys % 2**31), np.zeros((len(keys), 3, 3)),
-                           addv=PETSc.InsertMode.ADD_VALUES)
-        self._unreserved = False
+    def add_to_jacobian(self, A) -> None:
+        self._assembled = True  # a tangent went into this matrix (``begin_increment``)
+        super().add_to_jacobian(A)
 
     def begin_step(self, step_index: int) -> None:
         super().begin_step(step_index)
@@ -318,8 +307,7 @@ class ContactPair(ContactFeature):
 
     def begin_increment(self) -> bool:
         self._search()
-        self._unreserved = True
-        keys = self.candidate_keys = self._keys()
+        keys = self._keys()
         # on one rank a new step's matrix is made anew, unless no tangent went into the one there is
         # and it was made for these very keys (the first increment after ``setup``; module docstring)
         anew = self._new_step and self.solid.comm.size == 1 and (

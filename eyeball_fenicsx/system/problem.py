@@ -12,8 +12,12 @@ numbering of the DOLFINx dofs is unchanged and the bordered matrix
     [ C^T   D ]   B, C: one sparse column / row per global unknown, D: m x m
 
 is one MPIAIJ matrix that MUMPS factorizes directly (the seed's "new algorithm"). It is
-preallocated exactly from the DOLFINx sparsity pattern plus the borders, so assembly does
-no mallocs, and MUMPS reuses its symbolic analysis while the pattern stays the same.
+preallocated exactly from the DOLFINx sparsity pattern plus the borders and every entry the
+custom tangents declare (``coupling``), and those entries are given zeros at the matrix's first
+assembly: PETSc drops the room a final assembly left unused, and a tangent that reaches one of
+them later (a liquid's condensed block once it stops filling, a contact point on a new
+segment, a suture that comes taut) would then cost a malloc and MUMPS a new symbolic analysis.
+So assembly does no mallocs, and MUMPS reuses its analysis while the pattern stays the same.
 
 The rows of the residual fall into blocks of different units (``residual_blocks``), which
 Newton judges one by one: the free displacement rows (forces), the prescribed ones
@@ -165,6 +169,7 @@ class Problem:
         A.setLGMap(self.lgmap, self.lgmap)
         A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, not self.nodal_tangents)
         A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        self._room = rows, cols  # zeros at the first assembly (module docstring)
         return A
 
     def _coupling(self):
@@ -342,6 +347,10 @@ class Problem:
             for dofs, column, row, diagonal in f.border():
                 self._set_border(A, index, dofs, column, row, diagonal)
                 index += 1
+        if self._room is not None and len(self._room[0]):
+            rows, cols = (np.asarray(a, dtype=PETSc.IntType)[:, None] for a in self._room)
+            A.setValuesRCV(rows, cols, np.zeros((len(rows), 1, 1)), addv=PETSc.InsertMode.ADD_VALUES)
+        self._room = None
         for f in self.nodal_tangents:
             f.add_to_jacobian(A)
         A.assemble()
