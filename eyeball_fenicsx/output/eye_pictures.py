@@ -25,7 +25,7 @@ import numpy as np
 from dolfinx import fem
 
 from .eye_surface import OuterSurface, gather_faces, quad_nodes
-from .files import flatten, new_figure, plot_curves, raise_any_rank_failure, save_figure_atomic
+from .files import could_not_draw, flatten, new_figure, plot_curves, raise_any_rank_failure, save_figure_atomic
 from .labels import label
 from .measures import DETACHED_GAP, EyeMeasures, polar_angle
 from .observer import Observer
@@ -238,7 +238,7 @@ class EyePictures(Observer):
             try:
                 draw()
             except Exception as error:  # said on every rank, none left waiting for the others
-                failure = failure or f"could not draw {files[kind]} ({type(error).__name__}: {error})"
+                failure = failure or could_not_draw(files[kind], error)
         raise_any_rank_failure(failure, self.solid.comm)  # the run's page (output/report.py, rank 0) shows them next
 
     def finish(self, summary: dict) -> None:

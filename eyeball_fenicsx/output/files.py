@@ -77,6 +77,11 @@ def _could_not_write(path: str, error: OSError) -> str:
     return f"could not write {path} ({type(error).__name__}: {error.strerror or error})"
 
 
+def could_not_draw(what: str, error: Exception) -> str:
+    """The message of a picture (or pictures) ``what`` that could not be drawn."""
+    return f"could not draw {what} ({type(error).__name__}: {error})"
+
+
 def raise_on_every_rank(failure: str | None, comm: MPI.Comm) -> None:
     """Rank 0's ``failure`` (None: none) as an ``OutputError`` on every rank (collective)."""
     failure = comm.bcast(failure, root=0)
@@ -213,7 +218,7 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
     try:
         drawn = None, draw(mine)
     except Exception as error:  # sent to rank 0, which says it on every rank
-        drawn = f"could not draw {path} ({type(error).__name__}: {error})", None
+        drawn = could_not_draw(path, error), None
     drawn = comm.gather(drawn, root=0)
     failure = None
     if comm.rank == 0:
@@ -224,7 +229,7 @@ def plot_curves(path: str, x: list, curves: dict[str, list], xlabel: str, xtickl
         except OSError as error:
             failure = _could_not_write(path, error)
         except Exception as error:  # said on every rank: none is left waiting for rank 0
-            failure = f"could not draw {path} ({type(error).__name__}: {error})"
+            failure = could_not_draw(path, error)
     raise_on_every_rank(failure, comm)
 
 

@@ -32,7 +32,7 @@ from typing import Any
 from mpi4py import MPI
 
 from ..errors import ConvergenceError, SceneError
-from ..output.files import flatten, raise_on_every_rank, write_json_atomic, write_text_atomic
+from ..output.files import could_not_draw, flatten, raise_on_every_rank, write_json_atomic, write_text_atomic
 from ..output.sweep_plots import numeric_columns, plot_sweep
 from .loader import load_scene
 from .sweep_plan import Plan, Variant, plan_sweep
@@ -82,7 +82,7 @@ def run_sweep(scene_path: str, grid: Sequence[tuple[str, Sequence[Any]]] | Mappi
         try:
             plot_sweep(out_dir, table, plan.grid, bands, plan.ranges)
         except Exception as error:  # said on every rank, none left waiting for rank 0
-            failure = f"could not draw the sweep's pictures in {out_dir} ({type(error).__name__}: {error})"
+            failure = could_not_draw(f"the sweep's pictures in {out_dir}", error)
     raise_on_every_rank(failure, comm)
     return table
 
